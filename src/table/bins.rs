@@ -1,0 +1,192 @@
+//! Direction bins and the unordered-pair index of TABLE.md.
+
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_2, TAU};
+
+/// Polar bins over [0, π/2].
+pub const THETA_BINS: usize = 45;
+/// Azimuth bins over [0, 2π).
+pub const PHI_BINS: usize = 36;
+/// Direction bins: `d = PHI_BINS · t + p`.
+pub const DIRECTIONS: usize = THETA_BINS * PHI_BINS;
+/// Entries of the full (ordered) table: `DIRECTIONS²`.
+pub const ENTRIES: usize = DIRECTIONS * DIRECTIONS;
+/// Unordered direction pairs: what a reciprocal table stores.
+pub const PAIRS: usize = DIRECTIONS * (DIRECTIONS + 1) / 2;
+
+/// A direction bin index in `[0, DIRECTIONS)`.
+pub type DirIndex = u16;
+
+/// Polar index of an angle θ (radians), clamped to the last bin at π/2.
+pub fn theta_index(theta: f64) -> usize {
+    let t = (theta / FRAC_PI_2 * THETA_BINS as f64).floor();
+    if t.is_nan() || t < 0.0 {
+        0
+    } else {
+        (t as usize).min(THETA_BINS - 1)
+    }
+}
+
+/// Azimuth index of an angle φ (radians, any range).
+pub fn phi_index(phi: f64) -> usize {
+    let wrapped = phi.rem_euclid(TAU);
+    let p = (wrapped / TAU * PHI_BINS as f64).floor();
+    if p.is_nan() {
+        0
+    } else {
+        (p as usize) % PHI_BINS
+    }
+}
+
+/// The bin of a unit direction in the local shading frame, or `None` below the horizon.
+pub fn direction_index(w: DVec3) -> Option<DirIndex> {
+    let len = w.length();
+    if !len.is_finite() || len == 0.0 {
+        return None;
+    }
+    let w = w / len;
+    if w.z <= 0.0 {
+        return None;
+    }
+    let theta = w.z.min(1.0).acos();
+    let phi = w.y.atan2(w.x);
+    Some((PHI_BINS * theta_index(theta) + phi_index(phi)) as DirIndex)
+}
+
+/// Splits a direction index into its (polar, azimuth) indices.
+#[inline]
+pub fn split_direction(d: DirIndex) -> (usize, usize) {
+    let d = d as usize;
+    (d / PHI_BINS, d % PHI_BINS)
+}
+
+/// Polar angle of the centre of polar bin `t`.
+#[inline]
+pub fn theta_centre(t: usize) -> f64 {
+    (t as f64 + 0.5) * FRAC_PI_2 / THETA_BINS as f64
+}
+
+/// Azimuth of the centre of azimuth bin `p`.
+#[inline]
+pub fn phi_centre(p: usize) -> f64 {
+    (p as f64 + 0.5) * TAU / PHI_BINS as f64
+}
+
+/// (θ, φ) of the centre of direction bin `d`.
+#[inline]
+pub fn bin_angles(d: DirIndex) -> (f64, f64) {
+    let (t, p) = split_direction(d);
+    (theta_centre(t), phi_centre(p))
+}
+
+/// Unit vector of the centre of direction bin `d`.
+pub fn bin_centre(d: DirIndex) -> DVec3 {
+    let (theta, phi) = bin_angles(d);
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    DVec3::new(st * cp, st * sp, ct)
+}
+
+/// Index of the unordered pair {a, b} in a reciprocal table.
+///
+/// Pairs are ordered by the larger index, then the smaller, so that iterating
+/// `hi in 0..DIRECTIONS, lo in 0..=hi` walks the storage in order.
+#[inline]
+pub fn pair_index(a: DirIndex, b: DirIndex) -> usize {
+    let (lo, hi) = if a <= b { (a as usize, b as usize) } else { (b as usize, a as usize) };
+    hi * (hi + 1) / 2 + lo
+}
+
+/// The directions (lo, hi) of a pair index; inverse of [`pair_index`].
+pub fn pair_directions(pair: usize) -> (DirIndex, DirIndex) {
+    debug_assert!(pair < PAIRS);
+    // hi is the largest integer with hi(hi+1)/2 <= pair.
+    let mut hi = ((((8 * pair + 1) as f64).sqrt() - 1.0) / 2.0) as usize;
+    while hi * (hi + 1) / 2 > pair {
+        hi -= 1;
+    }
+    while (hi + 1) * (hi + 2) / 2 <= pair {
+        hi += 1;
+    }
+    let lo = pair - hi * (hi + 1) / 2;
+    (lo as DirIndex, hi as DirIndex)
+}
+
+/// How many full-table entries a pair stands for: 1 on the diagonal, 2 off it.
+#[inline]
+pub fn pair_multiplicity(pair: usize) -> f64 {
+    let (lo, hi) = pair_directions(pair);
+    if lo == hi { 1.0 } else { 2.0 }
+}
+
+/// Calls `f(pair, lo, hi)` for every pair in storage order.
+pub fn for_each_pair(mut f: impl FnMut(usize, DirIndex, DirIndex)) {
+    let mut pair = 0;
+    for hi in 0..DIRECTIONS {
+        for lo in 0..=hi {
+            f(pair, lo as DirIndex, hi as DirIndex);
+            pair += 1;
+        }
+    }
+}
+
+/// The cosine of the polar centre of a direction bin.
+#[inline]
+pub fn cos_theta_centre(d: DirIndex) -> f64 {
+    theta_centre(split_direction(d).0).cos()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centres_round_trip_to_their_bins() {
+        for d in 0..DIRECTIONS as DirIndex {
+            assert_eq!(direction_index(bin_centre(d)), Some(d));
+        }
+    }
+
+    #[test]
+    fn bin_centres_follow_table_md() {
+        // t = 0, p = 0: θ = 1°, φ = 5°.
+        let (theta, phi) = bin_angles(0);
+        assert!((theta - 1f64.to_radians()).abs() < 1e-15);
+        assert!((phi - 5f64.to_radians()).abs() < 1e-15);
+        // d = 36 t + p.
+        let (theta, phi) = bin_angles(36 * 44 + 35);
+        assert!((theta - 89f64.to_radians()).abs() < 1e-13);
+        assert!((phi - 355f64.to_radians()).abs() < 1e-13);
+    }
+
+    #[test]
+    fn edges_and_horizon() {
+        // The normal itself lands in polar bin 0.
+        assert_eq!(direction_index(DVec3::Z), Some(0));
+        // Below or on the horizon gives no bin.
+        assert_eq!(direction_index(DVec3::new(1.0, 0.0, 0.0)), None);
+        assert_eq!(direction_index(DVec3::new(0.0, 1.0, -0.1)), None);
+        assert_eq!(direction_index(DVec3::ZERO), None);
+        assert_eq!(direction_index(DVec3::new(f64::NAN, 0.0, 1.0)), None);
+        // Just under φ = 2π wraps to the last azimuth bin, just over 0 to the first.
+        let near = |phi: f64| DVec3::new(0.5 * phi.cos(), 0.5 * phi.sin(), 0.8);
+        assert_eq!(direction_index(near(-1e-9)).map(|d| d % 36), Some(35));
+        assert_eq!(direction_index(near(1e-9)).map(|d| d % 36), Some(0));
+        assert_eq!(phi_index(TAU), 0);
+        assert_eq!(theta_index(FRAC_PI_2), THETA_BINS - 1);
+    }
+
+    #[test]
+    fn pair_index_is_a_bijection() {
+        let mut expected = 0;
+        for_each_pair(|pair, lo, hi| {
+            assert_eq!(pair, expected);
+            assert_eq!(pair_index(lo, hi), pair);
+            assert_eq!(pair_index(hi, lo), pair);
+            assert_eq!(pair_directions(pair), (lo, hi));
+            expected += 1;
+        });
+        assert_eq!(expected, PAIRS);
+        assert_eq!(PAIRS, 1_313_010);
+    }
+}

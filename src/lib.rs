@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod fs_atomic;
+pub mod image_io;
 pub mod materials;
 pub mod table;
 

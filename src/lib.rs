@@ -8,6 +8,7 @@ pub mod error;
 pub mod fs_atomic;
 pub mod image_io;
 pub mod materials;
+pub mod scene;
 pub mod table;
 
 pub use error::{Error, Result};

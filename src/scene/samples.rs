@@ -1,0 +1,167 @@
+//! Painted pixels become BRDF samples: ρ = L / (π cos θ_l) in the bins the geometry buffer
+//! names (TABLE.md).
+
+use super::gbuffer::GBuffer;
+use super::image_files::read_painting;
+use crate::error::Result;
+use crate::image_io::RgbImage;
+use crate::table::DirIndex;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// Pixels whose cos θ_l or cos θ_v is below this (θ above about 84°) give no sample:
+/// dividing by a small cos θ_l magnifies paint error (10× at the threshold, unboundedly
+/// beyond), and near the silhouette one pixel spans a wide range of directions.
+pub const MIN_COS: f64 = 0.1;
+
+/// One BRDF sample from one painted pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Row-major pixel index in the guide image.
+    pub pixel: u32,
+    pub light_bin: DirIndex,
+    pub view_bin: DirIndex,
+    /// ρ in 1/sr, linear RGB, finite and ≥ 0.
+    pub rho: [f64; 3],
+}
+
+/// Why a pixel gives no sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SkipReason {
+    /// Off the object.
+    Background,
+    /// The light does not reach it: a cast shadow, or the normal faces away from the light.
+    Shadow,
+    /// cos θ_l or cos θ_v below [`MIN_COS`] (including a normal turned away from the camera).
+    Grazing,
+    /// A usable pixel whose paint is NaN, infinite or negative.
+    Invalid,
+}
+
+/// How many pixels gave a sample and how many were skipped, by reason. The five add up to
+/// the number of pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleCounts {
+    pub used: usize,
+    pub background: usize,
+    pub shadow: usize,
+    pub grazing: usize,
+    pub invalid: usize,
+}
+
+impl SampleCounts {
+    fn add(&mut self, outcome: &std::result::Result<Sample, SkipReason>) {
+        match outcome {
+            Ok(_) => self.used += 1,
+            Err(SkipReason::Background) => self.background += 1,
+            Err(SkipReason::Shadow) => self.shadow += 1,
+            Err(SkipReason::Grazing) => self.grazing += 1,
+            Err(SkipReason::Invalid) => self.invalid += 1,
+        }
+    }
+
+    fn merge(mut self, other: Self) -> Self {
+        self.used += other.used;
+        self.background += other.background;
+        self.shadow += other.shadow;
+        self.grazing += other.grazing;
+        self.invalid += other.invalid;
+        self
+    }
+
+    /// All pixels looked at.
+    pub fn total(&self) -> usize {
+        self.used + self.background + self.shadow + self.grazing + self.invalid
+    }
+}
+
+/// The samples of a painting, in pixel order, and the counts.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SampleSet {
+    pub samples: Vec<Sample>,
+    pub counts: SampleCounts,
+}
+
+/// The sample one painted pixel gives, or why it gives none. `radiance` is linear RGB.
+/// The geometry is judged first (background, shadow, grazing), the paint last, so that paint
+/// outside the usable area is never counted as invalid. An index outside the image is
+/// background.
+pub fn sample_pixel(
+    gbuffer: &GBuffer,
+    pixel: usize,
+    radiance: [f32; 3],
+) -> Result<Sample, SkipReason> {
+    let point = gbuffer.at(pixel).ok_or(SkipReason::Background)?;
+    if !point.is_lit() {
+        return Err(SkipReason::Shadow);
+    }
+    let cos_light = point.cos_light() as f64;
+    let (Some(light_bin), Some(view_bin)) = (point.light_bin, point.view_bin) else {
+        return Err(SkipReason::Grazing);
+    };
+    if cos_light < MIN_COS || (point.cos_view() as f64) < MIN_COS {
+        return Err(SkipReason::Grazing);
+    }
+    if radiance.iter().any(|c| !c.is_finite() || *c < 0.0) {
+        return Err(SkipReason::Invalid);
+    }
+    let scale = 1.0 / (PI * cos_light);
+    Ok(Sample {
+        pixel: pixel as u32,
+        light_bin,
+        view_bin,
+        rho: radiance.map(|c| c as f64 * scale),
+    })
+}
+
+/// The samples of a whole painting (linear RGB), rows in parallel.
+///
+/// # Panics
+/// When the image is not the geometry buffer's size; [`samples_from_file`] checks that and
+/// says so instead.
+pub fn samples_from_image(gbuffer: &GBuffer, image: &RgbImage) -> SampleSet {
+    let n = gbuffer.resolution();
+    assert!(
+        image.width == n && image.height == n && image.pixels.len() == n * n,
+        "painting of {} × {} for a {n} × {n} scene",
+        image.width,
+        image.height
+    );
+    if n == 0 {
+        return SampleSet::default();
+    }
+    let rows: Vec<(Vec<Sample>, SampleCounts)> = image
+        .pixels
+        .par_chunks(n)
+        .enumerate()
+        .map(|(y, row)| {
+            let mut samples = Vec::new();
+            let mut counts = SampleCounts::default();
+            for (x, &radiance) in row.iter().enumerate() {
+                let outcome = sample_pixel(gbuffer, y * n + x, radiance);
+                counts.add(&outcome);
+                if let Ok(sample) = outcome {
+                    samples.push(sample);
+                }
+            }
+            (samples, counts)
+        })
+        .collect();
+    let mut set = SampleSet {
+        samples: Vec::with_capacity(rows.iter().map(|(s, _)| s.len()).sum()),
+        counts: SampleCounts::default(),
+    };
+    for (samples, counts) in rows {
+        set.samples.extend(samples);
+        set.counts = set.counts.merge(counts);
+    }
+    set
+}
+
+/// Reads a painting (PNG: sRGB-decoded; EXR: linear) and turns it into samples; an image of
+/// the wrong size is an error naming the file and both sizes.
+pub fn samples_from_file(gbuffer: &GBuffer, path: impl AsRef<Path>) -> Result<SampleSet> {
+    let image = read_painting(path, gbuffer.resolution())?;
+    Ok(samples_from_image(gbuffer, &image))
+}

@@ -19,11 +19,17 @@ pub enum Error {
 
 impl Error {
     pub fn io(path: &Path, source: std::io::Error) -> Self {
-        Self::Io { path: path.to_path_buf(), source }
+        Self::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     }
 
     pub fn invalid(path: &Path, problem: impl Into<String>) -> Self {
-        Self::Invalid { path: path.to_path_buf(), problem: problem.into() }
+        Self::Invalid {
+            path: path.to_path_buf(),
+            problem: problem.into(),
+        }
     }
 }
 

@@ -4,11 +4,19 @@
 //! Data flows one way: scene → guide buffer → canvas → changed pixels → worker →
 //! snapshot → preview. This library is the engine; it knows nothing of the UI.
 
+// Colour channels and matrix rows index several parallel arrays at once; an index reads
+// clearer there than zipped iterators.
+#![allow(clippy::needless_range_loop)]
+
+pub mod basis;
+pub mod cli;
 pub mod error;
 pub mod fs_atomic;
 pub mod image_io;
 pub mod materials;
+pub mod metrics;
 pub mod scene;
+pub mod solver;
 pub mod table;
 
 pub use error::{Error, Result};

@@ -43,7 +43,13 @@ impl<B: Brdf + ?Sized> Brdf for std::sync::Arc<B> {
 }
 
 fn to_rgb32(rgb: [f64; 3]) -> [f32; 3] {
-    rgb.map(|c| if c.is_finite() && c > 0.0 { c as f32 } else { 0.0 })
+    rgb.map(|c| {
+        if c.is_finite() && c > 0.0 {
+            c as f32
+        } else {
+            0.0
+        }
+    })
 }
 
 /// Values of an isotropic BRDF at every (t_l, t_v, Δp) bin-centre combination.
@@ -134,11 +140,20 @@ mod tests {
     #[test]
     fn isotropic_shortcut_matches_direct_evaluation() {
         let table = tabulate(&IsoLobe);
-        for &(a, b) in &[(0u16, 0u16), (5, 700), (1619, 3), (800, 801), (36 * 20 + 7, 36 * 30 + 29)] {
+        for &(a, b) in &[
+            (0u16, 0u16),
+            (5, 700),
+            (1619, 3),
+            (800, 801),
+            (36 * 20 + 7, 36 * 30 + 29),
+        ] {
             let direct = to_rgb32(IsoLobe.eval(bin_centre(a), bin_centre(b)));
             let got = table.get(a, b);
             for c in 0..3 {
-                assert!((got[c] - direct[c]).abs() <= 1e-5 * direct[c].abs().max(1.0), "{a} {b}");
+                assert!(
+                    (got[c] - direct[c]).abs() <= 1e-5 * direct[c].abs().max(1.0),
+                    "{a} {b}"
+                );
             }
         }
     }

@@ -93,7 +93,11 @@ pub fn bin_centre(d: DirIndex) -> DVec3 {
 /// `hi in 0..DIRECTIONS, lo in 0..=hi` walks the storage in order.
 #[inline]
 pub fn pair_index(a: DirIndex, b: DirIndex) -> usize {
-    let (lo, hi) = if a <= b { (a as usize, b as usize) } else { (b as usize, a as usize) };
+    let (lo, hi) = if a <= b {
+        (a as usize, b as usize)
+    } else {
+        (b as usize, a as usize)
+    };
     hi * (hi + 1) / 2 + lo
 }
 

@@ -20,14 +20,18 @@ pub struct SymTable {
 
 impl std::fmt::Debug for SymTable {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SymTable").field("pairs", &self.values.len()).finish()
+        f.debug_struct("SymTable")
+            .field("pairs", &self.values.len())
+            .finish()
     }
 }
 
 impl SymTable {
     /// A table with every entry set to `value`.
     pub fn filled(value: Rgb) -> Self {
-        Self { values: vec![value; PAIRS] }
+        Self {
+            values: vec![value; PAIRS],
+        }
     }
 
     /// Wraps pair-ordered values (see [`pair_index`]); `None` unless there are exactly [`PAIRS`].
@@ -80,6 +84,8 @@ impl SymTable {
 
     /// True when every value is finite and ≥ 0.
     pub fn is_physical(&self) -> bool {
-        self.values.par_iter().all(|rgb| rgb.iter().all(|c| c.is_finite() && *c >= 0.0))
+        self.values
+            .par_iter()
+            .all(|rgb| rgb.iter().all(|c| c.is_finite() && *c >= 0.0))
     }
 }

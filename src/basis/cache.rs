@@ -1,0 +1,209 @@
+//! The on-disk basis cache: one memory-mapped file per spec, checksummed, never trusted blind.
+
+use super::Basis;
+use super::build::{BasisSpec, BuildProgress, build_basis};
+use crate::error::{Error, Result};
+use crate::fs_atomic::write_atomically;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Bump when the file layout changes.
+pub const FORMAT_VERSION: u32 = 2;
+const MAGIC: &[u8; 8] = b"BURNBSIS";
+const HEADER_LEN: usize = 256;
+const KEY_OFFSET: usize = 64;
+const MAX_KEY_LEN: usize = HEADER_LEN - KEY_OFFSET;
+
+/// Where a basis came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CacheOutcome {
+    /// Memory-mapped from a valid cache file.
+    Loaded,
+    /// No cache file existed, or a rebuild was asked for; built and stored.
+    Built,
+    /// A cache file existed but was stale, truncated or corrupt; rebuilt and replaced.
+    Rebuilt { reason: String },
+}
+
+/// The folder that holds cached bases.
+#[derive(Clone, Debug)]
+pub struct BasisCache {
+    dir: PathBuf,
+}
+
+impl BasisCache {
+    /// `$BURNISH_CACHE_DIR` if set, else the user's cache folder (e.g. ~/.cache/burnish).
+    pub fn default_location() -> Result<Self> {
+        if let Some(dir) = std::env::var_os("BURNISH_CACHE_DIR") {
+            return Ok(Self::at(PathBuf::from(dir)));
+        }
+        let dirs = directories::ProjectDirs::from("", "", "burnish").ok_or_else(|| {
+            Error::invalid(Path::new("~"), "no home folder to put the basis cache in")
+        })?;
+        Ok(Self::at(dirs.cache_dir().to_path_buf()))
+    }
+
+    pub fn at(dir: PathBuf) -> Self {
+        Self { dir }
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The cache file for `spec`: named by a hash of every input that shapes the basis.
+    pub fn path_for(&self, spec: &BasisSpec) -> PathBuf {
+        let key = full_key(spec);
+        self.dir.join(format!(
+            "basis-k{}-{:016x}.bin",
+            spec.components,
+            fnv1a(key.as_bytes())
+        ))
+    }
+
+    /// Loads the cached basis for `spec`. `Ok(None)` when there is no file;
+    /// `Err` (naming the file and the problem) when it exists but can't be trusted.
+    pub fn load(&self, spec: &BasisSpec) -> Result<Option<Basis>> {
+        let path = self.path_for(spec);
+        let file = match std::fs::File::open(&path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(Error::io(&path, e)),
+        };
+        // SAFETY: the cache file is ours; it is written atomically (rename) and never modified
+        // in place, so the mapping sees one complete file. Its contents are checksummed below.
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(&path, e))?;
+        parse(&path, map, &full_key(spec)).map(Some)
+    }
+
+    /// Writes `basis` as the cache file of `spec`, atomically.
+    pub fn store(&self, spec: &BasisSpec, basis: &Basis) -> Result<()> {
+        std::fs::create_dir_all(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
+        let path = self.path_for(spec);
+        let key = full_key(spec);
+        let variances: &[u8] = bytemuck::cast_slice(basis.variances());
+        let data: &[u8] = bytemuck::cast_slice(basis.raw());
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(&basis.residual_variance().to_le_bytes());
+        crc.update(variances);
+        crc.update(data);
+        let mut header = [0u8; HEADER_LEN];
+        header[..8].copy_from_slice(MAGIC);
+        header[8..12].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
+        header[12..16].copy_from_slice(&(basis.components() as u32).to_le_bytes());
+        header[16..20].copy_from_slice(&(basis.observations() as u32).to_le_bytes());
+        header[20..24].copy_from_slice(&(key.len() as u32).to_le_bytes());
+        header[24..32].copy_from_slice(&((variances.len() + data.len()) as u64).to_le_bytes());
+        header[32..36].copy_from_slice(&crc.finalize().to_le_bytes());
+        header[40..48].copy_from_slice(&basis.residual_variance().to_le_bytes());
+        header[KEY_OFFSET..KEY_OFFSET + key.len()].copy_from_slice(key.as_bytes());
+        write_atomically(&path, |w| {
+            w.write_all(&header)?;
+            w.write_all(variances)?;
+            w.write_all(data)
+        })
+    }
+
+    /// The basis for `spec`: from the cache when it is valid, else built (with progress)
+    /// and stored. A stale, truncated or corrupt file is rebuilt, never trusted.
+    pub fn load_or_build(
+        &self,
+        spec: &BasisSpec,
+        rebuild: bool,
+        progress: &(dyn Fn(BuildProgress) + Sync),
+    ) -> Result<(Arc<Basis>, CacheOutcome)> {
+        let outcome = if rebuild {
+            CacheOutcome::Built
+        } else {
+            match self.load(spec) {
+                Ok(Some(basis)) => return Ok((Arc::new(basis), CacheOutcome::Loaded)),
+                Ok(None) => CacheOutcome::Built,
+                Err(e) => CacheOutcome::Rebuilt {
+                    reason: e.to_string(),
+                },
+            }
+        };
+        let basis = build_basis(spec, progress);
+        self.store(spec, &basis)?;
+        Ok((Arc::new(basis), outcome))
+    }
+}
+
+fn full_key(spec: &BasisSpec) -> String {
+    let key = format!("format={FORMAT_VERSION};{}", spec.key());
+    assert!(key.len() <= MAX_KEY_LEN);
+    key
+}
+
+/// 64-bit FNV-1a: a stable hash for file names (the full key inside the file guards collisions).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+fn parse(path: &Path, map: memmap2::Mmap, expected_key: &str) -> Result<Basis> {
+    let bad = |problem: String| Error::invalid(path, problem);
+    if map.len() < HEADER_LEN {
+        return Err(bad(format!(
+            "basis cache truncated: {} bytes, header needs {HEADER_LEN}",
+            map.len()
+        )));
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(map[o..o + 4].try_into().unwrap());
+    if &map[..8] != MAGIC {
+        return Err(bad("not a Burnish basis cache (bad magic)".into()));
+    }
+    let format = u32_at(8);
+    if format != FORMAT_VERSION {
+        return Err(bad(format!(
+            "stale basis cache: format {format}, expected {FORMAT_VERSION}"
+        )));
+    }
+    let components = u32_at(12) as usize;
+    let observations = u32_at(16) as usize;
+    let key_len = u32_at(20) as usize;
+    let payload_len = u64::from_le_bytes(map[24..32].try_into().unwrap()) as usize;
+    let crc_expected = u32_at(32);
+    let residual_variance = f64::from_le_bytes(map[40..48].try_into().unwrap());
+    if key_len > MAX_KEY_LEN || &map[KEY_OFFSET..KEY_OFFSET + key_len] != expected_key.as_bytes() {
+        return Err(bad("stale basis cache: built from other inputs".into()));
+    }
+    if components == 0 || components > BasisSpec::MAX_COMPONENTS {
+        return Err(bad(format!("corrupt basis cache: {components} components")));
+    }
+    let expected_payload = 8 * components + 4 * Basis::stored_len(components);
+    if payload_len != expected_payload || map.len() != HEADER_LEN + expected_payload {
+        return Err(bad(format!(
+            "truncated or corrupt basis cache: {} bytes, expected {}",
+            map.len(),
+            HEADER_LEN + expected_payload
+        )));
+    }
+    let payload = &map[HEADER_LEN..];
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&map[40..48]);
+    crc.update(payload);
+    if crc.finalize() != crc_expected {
+        return Err(bad("corrupt basis cache: checksum mismatch".into()));
+    }
+    let variances: Vec<f64> = payload[..8 * components]
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    if variances.iter().any(|v| !v.is_finite() || *v < 0.0)
+        || !(residual_variance > 0.0 && residual_variance.is_finite())
+    {
+        return Err(bad("corrupt basis cache: invalid variances".into()));
+    }
+    let offset = HEADER_LEN + 8 * components;
+    Ok(Basis::from_mapped(
+        components,
+        observations,
+        variances,
+        residual_variance,
+        map,
+        offset,
+    ))
+}

@@ -1,0 +1,260 @@
+//! The PCA basis of the material database in the log-mapped domain of Nielsen et al. 2015.
+//!
+//! For every unordered direction pair p the basis holds the reference (per-entry median of ρ·c
+//! over the database), the mean of the mapped values, the range the database spans, and one row
+//! of K components. Component k is orthonormal over the *full* 1620² table, which counts an
+//! off-diagonal pair twice: Σ_p mult(p) u_p u_pᵀ = I.
+
+pub mod build;
+pub mod cache;
+
+pub use build::{BasisSpec, BuildProgress, build_basis};
+pub use cache::{BasisCache, CacheOutcome};
+
+use crate::table::{PAIRS, PHI_BINS, THETA_BINS, pair_directions, theta_centre};
+use std::sync::OnceLock;
+
+/// Cosine floor of the mapping weight c = clamp(cos θ_l cos θ_v, 0.01, 1).
+pub const MAP_COS_FLOOR: f64 = 0.01;
+/// Offset that keeps the logarithm finite for black entries.
+pub const MAP_EPSILON: f64 = 0.001;
+/// Floor of the residual variance, so that a database the basis spans exactly still leaves
+/// the prior some say.
+pub const MIN_RESIDUAL_VARIANCE: f64 = 1e-4;
+/// How far (in the mapped domain) a reconstruction may leave the range the database spans.
+pub const RANGE_MARGIN: f32 = 0.25;
+
+/// c for polar bins `t_l`, `t_v`.
+#[inline]
+pub fn cos_weight_polar(t_l: usize, t_v: usize) -> f64 {
+    static COS: OnceLock<[f64; THETA_BINS]> = OnceLock::new();
+    let cos = COS.get_or_init(|| std::array::from_fn(|t| theta_centre(t).cos()));
+    (cos[t_l] * cos[t_v]).clamp(MAP_COS_FLOOR, 1.0)
+}
+
+/// c for the pair index `pair`.
+#[inline]
+pub fn cos_weight(pair: usize) -> f64 {
+    let (lo, hi) = pair_directions(pair);
+    cos_weight_polar(lo as usize / PHI_BINS, hi as usize / PHI_BINS)
+}
+
+/// The forward map m = ln((ρc + ε) / (reference + ε)).
+#[inline]
+pub fn map_value(rho: f64, c: f64, reference: f64) -> f64 {
+    ((rho.max(0.0) * c + MAP_EPSILON) / (reference + MAP_EPSILON)).ln()
+}
+
+/// The inverse map, clamped to ρ ≥ 0.
+#[inline]
+pub fn unmap_value(m: f64, c: f64, reference: f64) -> f64 {
+    ((m.exp() * (reference + MAP_EPSILON) - MAP_EPSILON) / c).max(0.0)
+}
+
+/// Backing store of a basis: built in memory, or memory-mapped from the cache.
+enum Backing {
+    Owned(Vec<f32>),
+    Mapped { map: memmap2::Mmap, offset: usize },
+}
+
+/// A loaded or freshly built basis. Cheap to share behind an `Arc`.
+pub struct Basis {
+    components: usize,
+    observations: usize,
+    /// Variance of each component's coefficient over the database observations.
+    variances: Vec<f64>,
+    /// Mean squared residual per table entry of the database projected on the K components.
+    residual_variance: f64,
+    backing: Backing,
+}
+
+impl std::fmt::Debug for Basis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Basis")
+            .field("components", &self.components)
+            .field("observations", &self.observations)
+            .field("variances", &self.variances)
+            .field("residual_variance", &self.residual_variance)
+            .finish()
+    }
+}
+
+/// Offsets (in f32 elements) of the per-pair arrays inside the backing store.
+const REFERENCE: usize = 0;
+const MEAN: usize = PAIRS;
+const LOWER: usize = 2 * PAIRS;
+const UPPER: usize = 3 * PAIRS;
+const ROWS: usize = 4 * PAIRS;
+
+impl Basis {
+    /// Number of f32 values a basis of `components` components stores.
+    pub fn stored_len(components: usize) -> usize {
+        ROWS + PAIRS * components
+    }
+
+    pub(crate) fn from_owned(
+        components: usize,
+        observations: usize,
+        variances: Vec<f64>,
+        residual_variance: f64,
+        data: Vec<f32>,
+    ) -> Self {
+        assert_eq!(data.len(), Self::stored_len(components));
+        assert_eq!(variances.len(), components);
+        let backing = Backing::Owned(data);
+        Self {
+            components,
+            observations,
+            variances,
+            residual_variance,
+            backing,
+        }
+    }
+
+    pub(crate) fn from_mapped(
+        components: usize,
+        observations: usize,
+        variances: Vec<f64>,
+        residual_variance: f64,
+        map: memmap2::Mmap,
+        offset: usize,
+    ) -> Self {
+        assert!(map.len() >= offset + 4 * Self::stored_len(components));
+        assert_eq!(offset % 4, 0);
+        let backing = Backing::Mapped { map, offset };
+        Self {
+            components,
+            observations,
+            variances,
+            residual_variance,
+            backing,
+        }
+    }
+
+    fn data(&self) -> &[f32] {
+        match &self.backing {
+            Backing::Owned(v) => v,
+            Backing::Mapped { map, offset } => {
+                let bytes = &map[*offset..*offset + 4 * Self::stored_len(self.components)];
+                bytemuck::cast_slice(bytes)
+            }
+        }
+    }
+
+    /// All stored values, in file order.
+    pub(crate) fn raw(&self) -> &[f32] {
+        self.data()
+    }
+
+    /// K, the number of components.
+    pub fn components(&self) -> usize {
+        self.components
+    }
+
+    /// Observations (material × colour channel) the basis was learnt from.
+    pub fn observations(&self) -> usize {
+        self.observations
+    }
+
+    /// Coefficient variance of each component over the database, largest first.
+    pub fn variances(&self) -> &[f64] {
+        &self.variances
+    }
+
+    /// Mean squared residual, per table entry in the mapped domain, of the database's
+    /// observations after projection on the K components: what the basis cannot represent.
+    /// It is the observation noise variance the solver's prior assumes by default.
+    pub fn residual_variance(&self) -> f64 {
+        self.residual_variance
+    }
+
+    /// Per-pair median of ρ·c over the database.
+    pub fn references(&self) -> &[f32] {
+        &self.data()[REFERENCE..MEAN]
+    }
+
+    /// Per-pair mean of the mapped values.
+    pub fn means(&self) -> &[f32] {
+        &self.data()[MEAN..LOWER]
+    }
+
+    /// Per-pair lowest mapped value in the database.
+    pub fn lowers(&self) -> &[f32] {
+        &self.data()[LOWER..UPPER]
+    }
+
+    /// Per-pair highest mapped value in the database.
+    pub fn uppers(&self) -> &[f32] {
+        &self.data()[UPPER..ROWS]
+    }
+
+    /// All component rows, pair-major: `rows()[p * K + k]`.
+    pub fn rows(&self) -> &[f32] {
+        &self.data()[ROWS..]
+    }
+
+    /// The K component values of pair `p`.
+    #[inline]
+    pub fn row(&self, pair: usize) -> &[f32] {
+        let k = self.components;
+        &self.rows()[pair * k..(pair + 1) * k]
+    }
+
+    /// Maps a BRDF value of pair `p` into the mean-centred domain the components span,
+    /// clamped to the database's range (plus a margin) so that wild paint stays bounded.
+    #[inline]
+    pub fn centred_observation(&self, pair: usize, rho: f64) -> f64 {
+        let data = self.data();
+        let m = map_value(rho, cos_weight(pair), data[REFERENCE + pair] as f64);
+        let (lo, hi) = self.mapped_range(pair);
+        m.clamp(lo, hi) - data[MEAN + pair] as f64
+    }
+
+    /// The mapped range a reconstruction of pair `p` may take.
+    #[inline]
+    pub fn mapped_range(&self, pair: usize) -> (f64, f64) {
+        let data = self.data();
+        (
+            (data[LOWER + pair] - RANGE_MARGIN) as f64,
+            (data[UPPER + pair] + RANGE_MARGIN) as f64,
+        )
+    }
+
+    /// ρ at pair `p` from a centred mapped value (clamped to the database's range).
+    #[inline]
+    pub fn rho_from_centred(&self, pair: usize, centred: f64) -> f64 {
+        let data = self.data();
+        let (lo, hi) = self.mapped_range(pair);
+        let m = (centred + data[MEAN + pair] as f64).clamp(lo, hi);
+        unmap_value(m, cos_weight(pair), data[REFERENCE + pair] as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mapping_inverts() {
+        for &rho in &[0.0, 1e-6, 0.3, 5.0, 1e4] {
+            for &c in &[0.01, 0.4, 1.0] {
+                let m = map_value(rho, c, 0.2);
+                let back = unmap_value(m, c, 0.2);
+                assert!(
+                    (back - rho).abs() <= 1e-9 * rho.max(1.0),
+                    "{rho} {c} {back}"
+                );
+            }
+        }
+        // Nothing maps to a non-finite value, and ρ ≥ 0 comes back even from extreme m.
+        assert!(map_value(0.0, 0.01, 0.0).is_finite());
+        assert_eq!(unmap_value(-50.0, 0.5, 0.1), 0.0);
+    }
+
+    #[test]
+    fn cos_weight_is_clamped() {
+        assert!((cos_weight(0) - theta_centre(0).cos().powi(2)).abs() < 1e-12);
+        let last = crate::table::PAIRS - 1;
+        assert_eq!(cos_weight(last), MAP_COS_FLOOR);
+    }
+}

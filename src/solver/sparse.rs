@@ -1,0 +1,349 @@
+//! The sparse table: painted samples binned by (light, view) direction pair.
+//!
+//! Each sample is identified by (view, pixel), so repainting a pixel replaces its sample.
+//! A bin keeps its samples sorted by key and recomputes its value from them on every change:
+//! exact, order-independent (bit-identical to a batch build) and drift-free.
+
+use crate::table::{DirIndex, pair_index};
+use std::collections::{BTreeMap, HashMap};
+
+/// Identifies one sample: a pixel of a view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SampleKey {
+    pub view: u32,
+    pub pixel: u32,
+}
+
+/// How several samples in one bin become its value.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Policy {
+    /// The mean of the samples, per channel.
+    #[default]
+    Mean,
+    /// The darkest sample (by Rec. 709 luminance), so its colour stays whole.
+    Min,
+    /// The brightest sample (by Rec. 709 luminance).
+    Max,
+}
+
+impl std::str::FromStr for Policy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "mean" => Ok(Self::Mean),
+            "min" => Ok(Self::Min),
+            "max" => Ok(Self::Max),
+            other => Err(format!(
+                "unknown sample policy '{other}' (expected mean, min or max)"
+            )),
+        }
+    }
+}
+
+/// A bin whose value changed: `before`/`after` are `None` when the bin was/is empty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BinChange {
+    pub pair: u32,
+    pub before: Option<[f64; 3]>,
+    pub after: Option<[f64; 3]>,
+}
+
+/// Why a sample was not taken.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum SampleRejected {
+    #[error("sample value is NaN or infinite")]
+    NotFinite,
+    #[error("sample value is negative")]
+    Negative,
+}
+
+#[derive(Clone, Debug, Default)]
+struct Bin {
+    /// Sorted by key.
+    samples: Vec<(SampleKey, [f64; 3])>,
+    value: [f64; 3],
+}
+
+fn luminance(rgb: &[f64; 3]) -> f64 {
+    0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+}
+
+impl Bin {
+    fn aggregate(&self, policy: Policy) -> [f64; 3] {
+        match policy {
+            Policy::Mean => {
+                let mut sum = [0.0f64; 3];
+                for (_, v) in &self.samples {
+                    for c in 0..3 {
+                        sum[c] += v[c];
+                    }
+                }
+                sum.map(|s| s / self.samples.len() as f64)
+            }
+            Policy::Min => self.pick(|a, b| a < b),
+            Policy::Max => self.pick(|a, b| a > b),
+        }
+    }
+
+    /// The sample whose luminance `better` prefers; ties go to the smallest key.
+    fn pick(&self, better: impl Fn(f64, f64) -> bool) -> [f64; 3] {
+        let mut best = self.samples[0].1;
+        for (_, v) in &self.samples[1..] {
+            if better(luminance(v), luminance(&best)) {
+                best = *v;
+            }
+        }
+        best
+    }
+
+    /// Ratio of brightest to darkest sample luminance (with a small floor).
+    fn spread(&self) -> f64 {
+        const FLOOR: f64 = 1e-3;
+        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+        for (_, v) in &self.samples {
+            let y = luminance(v);
+            lo = lo.min(y);
+            hi = hi.max(y);
+        }
+        (hi + FLOOR) / (lo + FLOOR)
+    }
+}
+
+/// Binned samples of every view of a session.
+#[derive(Clone, Debug)]
+pub struct SparseTable {
+    policy: Policy,
+    /// Samples of one bin whose luminances differ by more than this factor are inconsistent.
+    inconsistency_ratio: f64,
+    sample_bins: HashMap<SampleKey, u32>,
+    bins: BTreeMap<u32, Bin>,
+}
+
+impl Default for SparseTable {
+    fn default() -> Self {
+        Self::new(Policy::Mean)
+    }
+}
+
+impl SparseTable {
+    /// Default factor between a bin's brightest and darkest sample beyond which it is inconsistent.
+    pub const DEFAULT_INCONSISTENCY_RATIO: f64 = 1.5;
+
+    pub fn new(policy: Policy) -> Self {
+        Self {
+            policy,
+            inconsistency_ratio: Self::DEFAULT_INCONSISTENCY_RATIO,
+            sample_bins: HashMap::new(),
+            bins: BTreeMap::new(),
+        }
+    }
+
+    pub fn policy(&self) -> Policy {
+        self.policy
+    }
+
+    /// Sets the inconsistency factor (> 1).
+    pub fn set_inconsistency_ratio(&mut self, ratio: f64) {
+        self.inconsistency_ratio = ratio.max(1.0);
+    }
+
+    /// Number of samples held.
+    pub fn sample_count(&self) -> usize {
+        self.sample_bins.len()
+    }
+
+    /// Number of bins with at least one sample.
+    pub fn observed_count(&self) -> usize {
+        self.bins.len()
+    }
+
+    /// The value of the bin of pair index `pair`, if observed.
+    pub fn bin_value(&self, pair: u32) -> Option<[f64; 3]> {
+        self.bins.get(&pair).map(|b| b.value)
+    }
+
+    /// Observed bins and their values, in pair order.
+    pub fn observed(&self) -> impl Iterator<Item = (u32, [f64; 3])> + '_ {
+        self.bins.iter().map(|(&p, b)| (p, b.value))
+    }
+
+    /// Number of samples in the bin of `pair`.
+    pub fn samples_in(&self, pair: u32) -> usize {
+        self.bins.get(&pair).map_or(0, |b| b.samples.len())
+    }
+
+    /// Bins whose samples disagree beyond the inconsistency factor, in pair order.
+    pub fn inconsistent_bins(&self) -> impl Iterator<Item = u32> + '_ {
+        let ratio = self.inconsistency_ratio;
+        self.bins
+            .iter()
+            .filter(move |(_, b)| b.samples.len() > 1 && b.spread() > ratio)
+            .map(|(&p, _)| p)
+    }
+
+    pub fn inconsistent_count(&self) -> usize {
+        self.inconsistent_bins().count()
+    }
+
+    /// Adds or replaces the sample `key` with value `rho` in bin (d_l, d_v).
+    /// Bins whose value changed are appended to `changes`.
+    pub fn set_sample(
+        &mut self,
+        key: SampleKey,
+        d_l: DirIndex,
+        d_v: DirIndex,
+        rho: [f64; 3],
+        changes: &mut Vec<BinChange>,
+    ) -> Result<(), SampleRejected> {
+        if rho.iter().any(|c| !c.is_finite()) {
+            return Err(SampleRejected::NotFinite);
+        }
+        if rho.iter().any(|&c| c < 0.0) {
+            return Err(SampleRejected::Negative);
+        }
+        let pair = pair_index(d_l, d_v) as u32;
+        match self.sample_bins.insert(key, pair) {
+            Some(old_pair) if old_pair != pair => {
+                self.edit_bin(old_pair, changes, |s| s.retain(|(k, _)| *k != key));
+            }
+            _ => {}
+        }
+        self.edit_bin(pair, changes, |samples| {
+            match samples.binary_search_by_key(&key, |(k, _)| *k) {
+                Ok(i) => samples[i].1 = rho,
+                Err(i) => samples.insert(i, (key, rho)),
+            }
+        });
+        Ok(())
+    }
+
+    /// Removes the sample `key`, if present.
+    pub fn remove_sample(&mut self, key: SampleKey, changes: &mut Vec<BinChange>) {
+        if let Some(pair) = self.sample_bins.remove(&key) {
+            self.edit_bin(pair, changes, |s| s.retain(|(k, _)| *k != key));
+        }
+    }
+
+    /// Removes every sample of `view` (a view muted or closed).
+    pub fn remove_view(&mut self, view: u32, changes: &mut Vec<BinChange>) {
+        let mut keys: Vec<SampleKey> = self
+            .sample_bins
+            .keys()
+            .filter(|k| k.view == view)
+            .copied()
+            .collect();
+        keys.sort_unstable();
+        for key in keys {
+            self.remove_sample(key, changes);
+        }
+    }
+
+    /// Changes the policy; every multi-sample bin whose value changes is reported.
+    pub fn set_policy(&mut self, policy: Policy, changes: &mut Vec<BinChange>) {
+        if policy == self.policy {
+            return;
+        }
+        self.policy = policy;
+        for (&pair, bin) in self.bins.iter_mut() {
+            let value = bin.aggregate(policy);
+            if value != bin.value {
+                changes.push(BinChange {
+                    pair,
+                    before: Some(bin.value),
+                    after: Some(value),
+                });
+                bin.value = value;
+            }
+        }
+    }
+
+    fn edit_bin(
+        &mut self,
+        pair: u32,
+        changes: &mut Vec<BinChange>,
+        edit: impl FnOnce(&mut Vec<(SampleKey, [f64; 3])>),
+    ) {
+        let bin = self.bins.entry(pair).or_default();
+        let before = (!bin.samples.is_empty()).then_some(bin.value);
+        edit(&mut bin.samples);
+        let after = if bin.samples.is_empty() {
+            self.bins.remove(&pair);
+            None
+        } else {
+            bin.value = bin.aggregate(self.policy);
+            Some(bin.value)
+        };
+        if before != after {
+            changes.push(BinChange {
+                pair,
+                before,
+                after,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(pixel: u32) -> SampleKey {
+        SampleKey { view: 0, pixel }
+    }
+
+    #[test]
+    fn repainting_replaces_and_policies_aggregate() {
+        let mut t = SparseTable::new(Policy::Mean);
+        let mut ch = Vec::new();
+        t.set_sample(key(1), 3, 9, [1.0, 1.0, 1.0], &mut ch)
+            .unwrap();
+        t.set_sample(key(2), 9, 3, [3.0, 3.0, 3.0], &mut ch)
+            .unwrap();
+        let pair = pair_index(3, 9) as u32;
+        assert_eq!(t.bin_value(pair), Some([2.0; 3]));
+        t.set_sample(key(2), 9, 3, [5.0, 5.0, 5.0], &mut ch)
+            .unwrap();
+        assert_eq!(t.bin_value(pair), Some([3.0; 3]));
+        assert_eq!(t.sample_count(), 2);
+        t.set_policy(Policy::Min, &mut ch);
+        assert_eq!(t.bin_value(pair), Some([1.0; 3]));
+        t.set_policy(Policy::Max, &mut ch);
+        assert_eq!(t.bin_value(pair), Some([5.0; 3]));
+        assert_eq!(t.inconsistent_bins().collect::<Vec<_>>(), vec![pair]);
+        t.remove_sample(key(2), &mut ch);
+        t.remove_sample(key(1), &mut ch);
+        assert_eq!(t.observed_count(), 0);
+        let last = ch.last().unwrap();
+        assert_eq!((last.before, last.after), (Some([1.0; 3]), None));
+    }
+
+    #[test]
+    fn bad_values_are_rejected_and_change_nothing() {
+        let mut t = SparseTable::default();
+        let mut ch = Vec::new();
+        assert_eq!(
+            t.set_sample(key(0), 0, 0, [f64::NAN, 0.0, 0.0], &mut ch),
+            Err(SampleRejected::NotFinite)
+        );
+        assert_eq!(
+            t.set_sample(key(0), 0, 0, [0.0, f64::INFINITY, 0.0], &mut ch),
+            Err(SampleRejected::NotFinite)
+        );
+        assert_eq!(
+            t.set_sample(key(0), 0, 0, [0.0, 0.0, -1.0], &mut ch),
+            Err(SampleRejected::Negative)
+        );
+        assert!(ch.is_empty());
+        assert_eq!(t.sample_count(), 0);
+    }
+
+    #[test]
+    fn a_sample_that_moves_bins_leaves_the_old_one() {
+        let mut t = SparseTable::default();
+        let mut ch = Vec::new();
+        t.set_sample(key(0), 1, 2, [1.0; 3], &mut ch).unwrap();
+        t.set_sample(key(0), 5, 6, [1.0; 3], &mut ch).unwrap();
+        assert_eq!(t.observed_count(), 1);
+        assert_eq!(t.bin_value(pair_index(1, 2) as u32), None);
+    }
+}

@@ -1,0 +1,271 @@
+//! The sparse table and the incremental solver against from-scratch builds and degenerate input.
+
+mod common;
+
+use burnish::materials::Brdf;
+use burnish::solver::{
+    BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
+};
+use burnish::table::{DIRECTIONS, DirIndex};
+use common::{small_basis, sphere_view_samples};
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// xorshift64*: a tiny deterministic generator for test sequences.
+struct Sequence(u64);
+impl Sequence {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+#[test]
+fn a_hundred_thousand_updates_equal_a_from_scratch_build() {
+    let basis = small_basis(20);
+    let mut seq = Sequence(0x5eed);
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+    let mut live: HashMap<SampleKey, (DirIndex, DirIndex, [f64; 3])> = HashMap::new();
+    // A pixel's bin is fixed by its view's geometry; a few pixels get re-binned (scene edits).
+    let pixel_bin = |key: SampleKey, salt: u64| -> (DirIndex, DirIndex) {
+        let h = (key.pixel as u64 * 2_654_435_761 + key.view as u64 * 97 + salt) % 1500;
+        (
+            (h % 60) as DirIndex * 27 % DIRECTIONS as DirIndex,
+            (h / 60 * 61 % DIRECTIONS as u64) as DirIndex,
+        )
+    };
+    let mut changes = Vec::new();
+    let mut applied = 0usize;
+    for _ in 0..120_000 {
+        let key = SampleKey {
+            view: seq.below(4) as u32,
+            pixel: seq.below(3000) as u32,
+        };
+        if seq.below(10) < 7 {
+            let salt = if seq.below(50) == 0 { seq.below(3) } else { 0 };
+            let (d_l, d_v) = pixel_bin(key, salt);
+            let scale = [0.0, 0.01, 1.0, 30.0][seq.below(4) as usize];
+            let rho = [seq.unit() * scale, seq.unit() * scale, seq.unit() * scale];
+            table.set_sample(key, d_l, d_v, rho, &mut changes).unwrap();
+            live.insert(key, (d_l, d_v, rho));
+        } else {
+            table.remove_sample(key, &mut changes);
+            live.remove(&key);
+        }
+        applied += changes.len();
+        solver.apply_all(&changes);
+        changes.clear();
+    }
+    assert!(
+        applied > Solver::REBUILD_INTERVAL,
+        "the run crosses a periodic rebuild"
+    );
+
+    let mut keys: Vec<_> = live.keys().copied().collect();
+    keys.sort_unstable();
+    let mut scratch_table = SparseTable::new(Policy::Mean);
+    let mut scratch_changes = Vec::new();
+    for key in keys.iter().rev() {
+        let (d_l, d_v, rho) = live[key];
+        scratch_table
+            .set_sample(*key, d_l, d_v, rho, &mut scratch_changes)
+            .unwrap();
+    }
+    let mut scratch = Solver::new(basis, Regularization::Auto);
+    scratch.apply_all(&scratch_changes);
+
+    // The sparse table is exact: every bin equal bit for bit, whatever the order of insertion.
+    assert_eq!(table.sample_count(), scratch_table.sample_count());
+    assert_eq!(
+        table.observed().collect::<Vec<_>>(),
+        scratch_table.observed().collect::<Vec<_>>()
+    );
+
+    // The normal equations agree to 1e-10 of their largest entry.
+    let ((n1, r1), (n2, r2)) = (solver.normal_equations(), scratch.normal_equations());
+    let scale = n2.iter().fold(0f64, |m, v| m.max(v.abs()));
+    let worst = n1
+        .iter()
+        .zip(n2)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f64, f64::max);
+    assert!(
+        worst <= 1e-10 * scale,
+        "normal matrix drift {worst} vs scale {scale}"
+    );
+    let rscale = r2.iter().flatten().fold(0f64, |m, v| m.max(v.abs()));
+    let rworst = r1
+        .iter()
+        .flatten()
+        .zip(r2.iter().flatten())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f64, f64::max);
+    assert!(
+        rworst <= 1e-10 * rscale,
+        "right-hand side drift {rworst} vs scale {rscale}"
+    );
+
+    // Solutions agree: to 1e-9 with a fixed prior; with α chosen by GCV, whose optimum is flat,
+    // to 1e-5 of the coefficient scale.
+    for (regularization, tolerance) in [
+        (Regularization::Auto, 1e-9),
+        (Regularization::Prior { alpha: 0.01 }, 1e-8),
+        (Regularization::Gcv, 1e-5),
+    ] {
+        solver.set_regularization(regularization);
+        scratch.set_regularization(regularization);
+        let (s1, s2) = (solver.solve(), scratch.solve());
+        let scale = s2
+            .coefficients
+            .iter()
+            .flatten()
+            .fold(0f64, |m, v| m.max(v.abs()));
+        for (a, b) in s1
+            .coefficients
+            .iter()
+            .flatten()
+            .zip(s2.coefficients.iter().flatten())
+        {
+            assert!(
+                (a - b).abs() <= tolerance * scale,
+                "{regularization:?}: {a} vs {b}"
+            );
+        }
+    }
+    // And an exact rebuild of the incremental solver gives the scratch state bit for bit.
+    solver.rebuild();
+    assert_eq!(solver.normal_equations().0, scratch.normal_equations().0);
+}
+
+#[derive(Debug)]
+struct Constant([f64; 3]);
+impl Brdf for Constant {
+    fn eval(&self, _: DVec3, _: DVec3) -> [f64; 3] {
+        self.0
+    }
+    fn is_isotropic(&self) -> bool {
+        true
+    }
+}
+
+fn solve_with(
+    samples: &[common::PixelSample],
+    regularization: Regularization,
+) -> (Reconstruction, f64) {
+    let basis = small_basis(20);
+    let mut table = SparseTable::default();
+    let mut solver = Solver::new(basis.clone(), regularization);
+    let mut changes: Vec<BinChange> = Vec::new();
+    for &(key, d_l, d_v, rho) in samples {
+        table.set_sample(key, d_l, d_v, rho, &mut changes).unwrap();
+    }
+    solver.apply_all(&changes);
+    let solution = solver.solve();
+    assert!(
+        solution
+            .coefficients
+            .iter()
+            .flatten()
+            .all(|x| x.is_finite())
+    );
+    assert!(solution.condition_number.is_finite() && solution.condition_number >= 1.0);
+    (
+        Reconstruction::new(basis, &solution.coefficients),
+        solution.alpha,
+    )
+}
+
+/// Mean luminance-ish level of a table (mean of all stored values).
+fn level(recon: &Reconstruction) -> f64 {
+    let table = recon.materialize();
+    assert!(table.is_physical(), "every entry finite and ≥ 0");
+    table
+        .pairs()
+        .iter()
+        .flatten()
+        .map(|&v| v as f64)
+        .sum::<f64>()
+        / (3 * table.pairs().len()) as f64
+}
+
+#[test]
+fn degenerate_input_gives_finite_sensible_answers() {
+    let basis = small_basis(20);
+    let mean_level = level(&Reconstruction::mean_material(basis.clone()));
+
+    // No sample at all: the mean material.
+    let (empty, _) = solve_with(&[], Regularization::Auto);
+    assert_eq!(level(&empty), mean_level);
+
+    // One sample, and K = 20 above the observed bin count.
+    let grey = sphere_view_samples(&Constant([0.2; 3]), 0, 45.0, 30.0, 48);
+    let (one, _) = solve_with(&grey[..1], Regularization::Auto);
+    level(&one);
+    let (three, _) = solve_with(&grey[..3], Regularization::Auto);
+    level(&three);
+
+    // Duplicates: 500 pixels with the same value in one bin equal one sample.
+    let dupes: Vec<_> = (0..500)
+        .map(|i| {
+            (
+                SampleKey { view: 0, pixel: i },
+                grey[0].1,
+                grey[0].2,
+                grey[0].3,
+            )
+        })
+        .collect();
+    let (dup, _) = solve_with(&dupes, Regularization::Auto);
+    let (dup_level, one_level) = (level(&dup), level(&one));
+    assert!(
+        (dup_level - one_level).abs() <= 1e-9 * one_level,
+        "{dup_level} vs {one_level}"
+    );
+
+    // All-black paint is darker than the mean material; saturated paint brighter but bounded.
+    let black = sphere_view_samples(&Constant([0.0; 3]), 0, 45.0, 30.0, 48);
+    let (dark, _) = solve_with(&black, Regularization::Auto);
+    let dark_level = level(&dark);
+    let hot = sphere_view_samples(&Constant([1e6; 3]), 0, 45.0, 30.0, 48);
+    let (bright, _) = solve_with(&hot, Regularization::Auto);
+    let bright_level = level(&bright);
+    assert!(
+        dark_level < 0.5 * mean_level,
+        "black paint: {dark_level} vs mean {mean_level}"
+    );
+    assert!(
+        bright_level > 2.0 * mean_level,
+        "saturated paint: {bright_level} vs mean {mean_level}"
+    );
+    assert!(
+        bright_level < 1e5,
+        "extrapolation is clamped to the database range: {bright_level}"
+    );
+
+    // Tiny, zero and huge regularisation stay finite.
+    for reg in [
+        Regularization::Ridge { lambda: 0.0 },
+        Regularization::Ridge { lambda: 1e-300 },
+        Regularization::Prior { alpha: 1e-12 },
+        Regularization::Prior { alpha: 1e12 },
+        Regularization::Ridge { lambda: 1e12 },
+        Regularization::Gcv,
+    ] {
+        let (r, _) = solve_with(&grey, reg);
+        level(&r);
+        let (r, _) = solve_with(&grey[..1], reg);
+        level(&r);
+    }
+    // Huge α gives back the mean material.
+    let (prior_only, _) = solve_with(&grey, Regularization::Prior { alpha: 1e12 });
+    assert!((level(&prior_only) - mean_level).abs() < 1e-3 * mean_level);
+}

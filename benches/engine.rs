@@ -1,0 +1,99 @@
+//! Micro-benchmarks of the live loop (issue figures): one 500-pixel dab to new coefficients,
+//! the full table from coefficients, lazy evaluation of a view's entries, and loading the
+//! default basis from its cache. Uses the default basis (built and cached on first run).
+
+use burnish::basis::{BasisCache, BasisSpec};
+use burnish::solver::{Reconstruction, Regularization, SampleKey, Solver, SparseTable};
+use burnish::table::{DIRECTIONS, DirIndex};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::time::Duration;
+
+fn default_basis(k: usize) -> std::sync::Arc<burnish::basis::Basis> {
+    let cache = BasisCache::default_location().expect("a cache folder");
+    cache
+        .load_or_build(&BasisSpec::default_for(k), false, &|_| {})
+        .expect("basis")
+        .0
+}
+
+/// A pixel's bins as a guide view fixes them: 20,000 pixels over ~6,000 bins.
+fn pixel_bins(pixel: u32) -> (DirIndex, DirIndex) {
+    let h = pixel as u64 * 2_654_435_761 % 6007;
+    (
+        (h * 7 % DIRECTIONS as u64) as DirIndex,
+        (h * 13 / 7 % DIRECTIONS as u64) as DirIndex,
+    )
+}
+
+fn engine(c: &mut Criterion) {
+    for k in [20usize, 40] {
+        let basis = default_basis(k);
+        let mut table = SparseTable::default();
+        let mut solver = Solver::new(basis.clone(), Regularization::Gcv);
+        let mut changes = Vec::new();
+        for pixel in 0..20_000u32 {
+            let (d_l, d_v) = pixel_bins(pixel);
+            table
+                .set_sample(
+                    SampleKey { view: 0, pixel },
+                    d_l,
+                    d_v,
+                    [0.2, 0.3, 0.4],
+                    &mut changes,
+                )
+                .unwrap();
+        }
+        solver.apply_all(&changes);
+        changes.clear();
+
+        let mut stroke = 0u32;
+        c.bench_function(&format!("dab_500_pixels_to_coefficients_k{k}"), |b| {
+            b.iter(|| {
+                stroke += 1;
+                let value = 0.1 + 0.05 * (stroke % 7) as f64;
+                for i in 0..500u32 {
+                    let pixel = (stroke * 500 + i) % 20_000;
+                    let (d_l, d_v) = pixel_bins(pixel);
+                    let key = SampleKey { view: 0, pixel };
+                    table
+                        .set_sample(key, d_l, d_v, [value, value, 0.5 * value], &mut changes)
+                        .unwrap();
+                }
+                solver.apply_all(&changes);
+                changes.clear();
+                black_box(solver.solve())
+            })
+        });
+
+        let solution = solver.solve();
+        let recon = Reconstruction::new(basis.clone(), &solution.coefficients);
+        c.bench_function(&format!("full_table_from_coefficients_k{k}"), |b| {
+            b.iter(|| black_box(recon.materialize()))
+        });
+        let pairs: Vec<u32> = (0..262_144u32).map(|i| i * 5).collect();
+        let mut out = Vec::new();
+        c.bench_function(&format!("lazy_eval_262144_entries_k{k}"), |b| {
+            b.iter(|| {
+                recon.eval_pairs(&pairs, &mut out);
+                black_box(out.len())
+            })
+        });
+        c.bench_function(&format!("rebuild_normal_equations_k{k}"), |b| {
+            b.iter(|| solver.rebuild())
+        });
+    }
+
+    let cache = BasisCache::default_location().expect("a cache folder");
+    let spec = BasisSpec::default_for(20);
+    c.bench_function("basis_cache_load_k20", |b| {
+        b.iter(|| black_box(cache.load(&spec).expect("valid cache").expect("cached")))
+    });
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(30).measurement_time(Duration::from_secs(4));
+    targets = engine
+}
+criterion_main!(benches);

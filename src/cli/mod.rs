@@ -1,0 +1,92 @@
+//! The command line: each verb drives the engine the way a script or a test would.
+
+mod basis_cmd;
+pub mod eval_cmd;
+mod reconstruct_cmd;
+mod scene_cmds;
+
+use crate::basis::BuildProgress;
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "burnish",
+    version,
+    about = "Paint how a material looks; get back a full tabulated BRDF."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Write the guide image of a scene: the object, diffusely shaded, to paint over.
+    Guide(scene_cmds::GuideArgs),
+    /// Render a scene's object with a BRDF table, as a perfect painter would paint it.
+    Render(scene_cmds::RenderArgs),
+    /// Rebuild a full BRDF table from paintings of one or more views.
+    Reconstruct(reconstruct_cmd::ReconstructArgs),
+    /// Score an estimated table against the truth.
+    Eval(eval_cmd::EvalArgs),
+    /// Build (or load from the cache) the PCA basis of the material database.
+    Basis(basis_cmd::BasisArgs),
+}
+
+/// Runs the command line; errors are printed with the file and the problem, exit code 1.
+pub fn run() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Some(Command::Guide(args)) => scene_cmds::guide(&args),
+        Some(Command::Render(args)) => scene_cmds::render(&args),
+        Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
+        Some(Command::Eval(args)) => eval_cmd::run(&args),
+        Some(Command::Basis(args)) => basis_cmd::run(&args),
+        None => {
+            println!("{}", usage());
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn usage() -> String {
+    "Burnish: paint how a material looks; get back a full tabulated BRDF.\n\n\
+     The painting app is not part of this build yet. Use the verbs:\n  \
+     burnish guide --scene S.toml --out guide.png                  the guide to paint over\n  \
+     burnish reconstruct --view S.toml=painting.png --out T.exr    paintings to a BRDF table\n  \
+     burnish render --scene S.toml --brdf T.exr --out image.png    the object with a table\n  \
+     burnish eval --truth A.exr --estimate B.exr                   compare two tables\n  \
+     burnish basis [--components K] [--rebuild]                    build or load the basis\n\n\
+     Run `burnish --help` or `burnish <verb> --help` for details."
+        .to_string()
+}
+
+/// A progress bar for basis builds, one stage at a time.
+pub(crate) fn basis_progress_bar() -> impl Fn(BuildProgress) + Sync {
+    let bar = indicatif::ProgressBar::new(1);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} {elapsed}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let bar = std::sync::Mutex::new(bar);
+    move |p: BuildProgress| {
+        let bar = bar.lock().unwrap();
+        if bar.message() != p.stage {
+            bar.set_message(p.stage);
+            bar.set_length(p.total as u64);
+        }
+        bar.set_position(p.done as u64);
+        if p.done == p.total && p.stage == "power iterations" {
+            bar.finish();
+        }
+    }
+}

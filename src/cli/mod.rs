@@ -69,6 +69,14 @@ fn usage() -> String {
         .to_string()
 }
 
+/// Creates the missing folders above an output file, as users expect of a command line.
+pub(crate) fn ensure_parent(path: &std::path::Path) -> anyhow::Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| crate::Error::io(parent, e))?;
+    }
+    Ok(())
+}
+
 /// A progress bar for basis builds, one stage at a time.
 pub(crate) fn basis_progress_bar() -> impl Fn(BuildProgress) + Sync {
     let bar = indicatif::ProgressBar::new(1);

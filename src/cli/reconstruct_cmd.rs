@@ -158,6 +158,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     let full = Reconstruction::new(basis, &solution.coefficients).materialize();
     let materialize_ms = start.elapsed().as_secs_f64() * 1e3;
     let start = Instant::now();
+    super::ensure_parent(&args.out)?;
     write_table_exr(&args.out, &full)?;
     println!(
         "table: materialised in {materialize_ms:.0} ms, written to {} in {:.0} ms",
@@ -166,6 +167,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     );
     if let Some(merl) = &args.merl {
         let start = Instant::now();
+        super::ensure_parent(merl)?;
         MerlBrdf::from_table(&full).write(merl)?;
         println!(
             "MERL binary written to {} in {:.0} ms",

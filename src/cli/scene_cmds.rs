@@ -42,6 +42,7 @@ pub(crate) fn scene_gbuffer(path: &std::path::Path) -> anyhow::Result<(Scene, GB
 pub fn guide(args: &GuideArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let (_, gbuffer) = scene_gbuffer(&args.scene)?;
+    super::ensure_parent(&args.out)?;
     write_png(&args.out, &guide_image(&gbuffer))?;
     println!(
         "guide written to {} ({} × {}, {} pixels on the object) in {:.0} ms",
@@ -58,6 +59,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let table = read_table_exr(&args.brdf)?;
     let (_, gbuffer) = scene_gbuffer(&args.scene)?;
+    super::ensure_parent(&args.out)?;
     write_image(&args.out, &render_table(&gbuffer, &table))?;
     println!(
         "render written to {} in {:.0} ms",

@@ -269,3 +269,21 @@ fn degenerate_input_gives_finite_sensible_answers() {
     let (prior_only, _) = solve_with(&grey, Regularization::Prior { alpha: 1e12 });
     assert!((level(&prior_only) - mean_level).abs() < 1e-3 * mean_level);
 }
+
+#[test]
+fn lazy_evaluation_equals_the_materialised_table() {
+    let basis = small_basis(20);
+    let samples = sphere_view_samples(&Constant([0.3, 0.1, 0.05]), 0, 45.0, 30.0, 48);
+    let (recon, _) = solve_with(&samples, Regularization::Auto);
+    let full = recon.materialize();
+    let pairs: Vec<u32> = (0..burnish::table::PAIRS as u32).step_by(97).collect();
+    let mut lazy = Vec::new();
+    recon.eval_pairs(&pairs, &mut lazy);
+    for (&p, value) in pairs.iter().zip(&lazy) {
+        assert_eq!(*value, full.pairs()[p as usize], "pair {p}");
+    }
+    for (d_l, d_v) in [(0, 0), (3, 1500), (1500, 3), (1619, 1619)] {
+        assert_eq!(recon.eval(d_l, d_v), full.get(d_l, d_v));
+    }
+    assert_eq!(basis.components(), 20);
+}

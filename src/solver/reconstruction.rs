@@ -1,7 +1,7 @@
 //! The reconstructed BRDF: evaluated lazily, entry by entry, for what a view needs, or
 //! materialised in parallel as a full table for export.
 
-use crate::basis::{Basis, MAP_EPSILON, cos_weight_polar};
+use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::table::{DIRECTIONS, DirIndex, PHI_BINS, Rgb, SymTable, pair_index};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -44,47 +44,48 @@ impl Reconstruction {
     #[inline]
     pub fn eval_pair(&self, pair: usize) -> Rgb {
         let (lo, hi) = crate::table::pair_directions(pair);
-        self.eval_with_weight(
-            pair,
-            cos_weight_polar(lo as usize / PHI_BINS, hi as usize / PHI_BINS),
-        )
+        self.evaluator()
+            .eval(pair, lo as usize / PHI_BINS, hi as usize / PHI_BINS)
     }
 
     /// ρ(d_l, d_v).
     #[inline]
     pub fn eval(&self, d_l: DirIndex, d_v: DirIndex) -> Rgb {
-        let c = cos_weight_polar(d_l as usize / PHI_BINS, d_v as usize / PHI_BINS);
-        self.eval_with_weight(pair_index(d_l, d_v), c)
+        let pair = pair_index(d_l, d_v);
+        self.evaluator()
+            .eval(pair, d_l as usize / PHI_BINS, d_v as usize / PHI_BINS)
     }
 
-    /// Evaluates only the pairs a view asks for.
+    /// Evaluates only the pairs a view asks for, in parallel for large requests.
     pub fn eval_pairs(&self, pairs: &[u32], out: &mut Vec<Rgb>) {
+        let evaluator = self.evaluator();
+        let one = |&p: &u32| {
+            let (lo, hi) = crate::table::pair_directions(p as usize);
+            evaluator.eval(p as usize, lo as usize / PHI_BINS, hi as usize / PHI_BINS)
+        };
         out.clear();
-        out.extend(pairs.iter().map(|&p| self.eval_pair(p as usize)));
+        if pairs.len() < 16_384 {
+            out.extend(pairs.iter().map(one));
+        } else {
+            pairs
+                .par_iter()
+                .with_min_len(4096)
+                .map(one)
+                .collect_into_vec(out);
+        }
     }
 
-    #[inline]
-    fn eval_with_weight(&self, pair: usize, c: f64) -> Rgb {
-        let row = self.basis.row(pair);
-        let mean = self.basis.means()[pair];
-        let reference = self.basis.references()[pair] + MAP_EPSILON as f32;
-        let (lo, hi) = self.basis.mapped_range(pair);
-        let (lo, hi) = (lo as f32, hi as f32);
-        let inv_c = (1.0 / c) as f32;
-        let [xr, xg, xb] = &self.coefficients;
-        let (mut r, mut g, mut b) = (0f32, 0f32, 0f32);
-        for (i, &u) in row.iter().enumerate() {
-            r += u * xr[i];
-            g += u * xg[i];
-            b += u * xb[i];
+    /// The slices one evaluation reads, looked up once per batch rather than once per entry.
+    fn evaluator(&self) -> Evaluator<'_> {
+        Evaluator {
+            k: self.basis.components(),
+            rows: self.basis.rows(),
+            means: self.basis.means(),
+            references: self.basis.references(),
+            lowers: self.basis.lowers(),
+            uppers: self.basis.uppers(),
+            coefficients: &self.coefficients,
         }
-        let unmap = |d: f32| {
-            let m = (mean + d).clamp(lo, hi);
-            let rho = (m.exp() * reference - MAP_EPSILON as f32) * inv_c;
-            // Clamping m keeps rho finite; max(0) also maps a NaN from bad coefficients to 0.
-            rho.max(0.0)
-        };
-        [unmap(r), unmap(g), unmap(b)]
     }
 
     /// The full table, in parallel. Each pair is evaluated once: reciprocal by construction.
@@ -98,13 +99,51 @@ impl Reconstruction {
             runs.push((hi, run));
             rest = tail;
         }
+        let evaluator = self.evaluator();
         runs.into_par_iter().with_min_len(8).for_each(|(hi, run)| {
             let base = hi * (hi + 1) / 2;
             let t_hi = hi / PHI_BINS;
             for (lo, out) in run.iter_mut().enumerate() {
-                *out = self.eval_with_weight(base + lo, cos_weight_polar(lo / PHI_BINS, t_hi));
+                *out = evaluator.eval(base + lo, lo / PHI_BINS, t_hi);
             }
         });
         SymTable::from_pairs(values).expect("PAIRS values")
+    }
+}
+
+/// Borrowed basis arrays and coefficients for a run of evaluations.
+struct Evaluator<'a> {
+    k: usize,
+    rows: &'a [f32],
+    means: &'a [f32],
+    references: &'a [f32],
+    lowers: &'a [f32],
+    uppers: &'a [f32],
+    coefficients: &'a [Vec<f32>; 3],
+}
+
+impl Evaluator<'_> {
+    /// ρ of pair `pair` whose directions lie in polar bins `t_l` and `t_v`.
+    #[inline]
+    fn eval(&self, pair: usize, t_l: usize, t_v: usize) -> Rgb {
+        let row = &self.rows[pair * self.k..(pair + 1) * self.k];
+        let [xr, xg, xb] = self.coefficients;
+        let (mut r, mut g, mut b) = (0f32, 0f32, 0f32);
+        for (i, &u) in row.iter().enumerate() {
+            r += u * xr[i];
+            g += u * xg[i];
+            b += u * xb[i];
+        }
+        let mean = self.means[pair];
+        let reference = self.references[pair] + MAP_EPSILON as f32;
+        let lo = self.lowers[pair] - RANGE_MARGIN;
+        let hi = self.uppers[pair] + RANGE_MARGIN;
+        let inv_c = (1.0 / cos_weight_polar(t_l, t_v)) as f32;
+        let unmap = |d: f32| {
+            let m = (mean + d).clamp(lo, hi);
+            // Clamping m keeps ρ finite; max(0) also maps a NaN from bad coefficients to 0.
+            ((m.exp() * reference - MAP_EPSILON as f32) * inv_c).max(0.0)
+        };
+        [unmap(r), unmap(g), unmap(b)]
     }
 }

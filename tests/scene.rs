@@ -680,15 +680,31 @@ fn painted_files_round_trip_and_wrong_sizes_are_refused() {
 // ---------------------------------------------------------------------------------------
 // Example meshes and timings (run by hand)
 
-/// Regenerates assets/meshes: `cargo test --test scene -- --ignored write_example_meshes`.
+/// The shipped example meshes are exactly what their generators below make, so they can be
+/// regenerated and reviewed. `BURNISH_WRITE_EXAMPLE_MESHES=1 cargo test --test scene example_meshes`
+/// rewrites them first.
 #[test]
-#[ignore]
-fn write_example_meshes() {
-    std::fs::create_dir_all(assets()).unwrap();
-    l_block()
-        .write_obj(assets().join("l-block.obj"), true)
-        .unwrap();
-    bowl().write_obj(assets().join("bowl.obj"), false).unwrap();
+fn example_meshes_are_what_the_generators_make() {
+    let meshes = [
+        ("l-block.obj", l_block(), true),
+        ("bowl.obj", bowl(), false),
+    ];
+    if std::env::var_os("BURNISH_WRITE_EXAMPLE_MESHES").is_some() {
+        std::fs::create_dir_all(assets()).unwrap();
+        for (name, mesh, with_normals) in &meshes {
+            mesh.write_obj(assets().join(name), *with_normals).unwrap();
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for (name, mesh, with_normals) in &meshes {
+        let fresh = dir.path().join(name);
+        mesh.write_obj(&fresh, *with_normals).unwrap();
+        let shipped = std::fs::read(assets().join(name)).unwrap();
+        assert!(
+            std::fs::read(&fresh).unwrap() == shipped,
+            "assets/meshes/{name} differs from its generator"
+        );
+    }
 }
 
 /// An L-shaped block with flat faces (normals in the file, one per face), turned so that the
@@ -809,64 +825,4 @@ fn bowl() -> Mesh {
     let mut mesh = Mesh::new(positions, None, triangles).unwrap();
     mesh.normalize();
     mesh
-}
-
-/// Prints the timings the design notes quote:
-/// `cargo test --release --test scene -- --ignored --nocapture timings`.
-#[test]
-#[ignore]
-fn timings() {
-    use std::time::Instant;
-    let best_of = |runs: usize, mut f: Box<dyn FnMut()>| {
-        (0..runs)
-            .map(|_| {
-                let t = Instant::now();
-                f();
-                t.elapsed().as_secs_f64()
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
-    let s = scene(1024);
-    let ball = sphere();
-    let t = best_of(3, Box::new(|| drop(GBuffer::build(&s, &ball))));
-    println!("gbuffer 1024² sphere (shadows on): {:.3} s", t);
-
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("lumpy.obj");
-    let lumpy = uv_sphere(225, 224, |u| {
-        1.0 + 0.15 * (5.0 * u.x).sin() * (4.0 * u.y + 1.0).cos() + 0.1 * (7.0 * u.z).sin()
-    });
-    lumpy.write_obj(&path, false).unwrap();
-    let t0 = Instant::now();
-    let object = Object::from_obj(&path).unwrap();
-    let triangles = object.mesh().unwrap().triangles.len();
-    println!(
-        "load + BVH of {triangles} triangles: {:.3} s",
-        t0.elapsed().as_secs_f64()
-    );
-    let t = best_of(3, Box::new(|| drop(GBuffer::build(&s, &object))));
-    println!(
-        "gbuffer 1024² {triangles}-triangle OBJ (shadows on): {:.3} s",
-        t
-    );
-    let gbuffer = GBuffer::build(&s, &object);
-    let shadowed = gbuffer
-        .pixels()
-        .iter()
-        .flatten()
-        .filter(|p| p.in_shadow)
-        .count();
-    println!(
-        "  covered {}, in shadow {shadowed}",
-        gbuffer.covered_count()
-    );
-
-    let table = SymTable::filled([0.2; 3]);
-    let render = render_table(&gbuffer, &table);
-    let t = best_of(5, Box::new(|| drop(samples_from_image(&gbuffer, &render))));
-    println!("samples_from_image 1024²: {:.4} s", t);
-    let t = best_of(5, Box::new(|| drop(render_table(&gbuffer, &table))));
-    println!("render_table 1024²: {:.4} s", t);
-    let t = best_of(5, Box::new(|| drop(guide_image(&gbuffer))));
-    println!("guide_image 1024²: {:.4} s", t);
 }

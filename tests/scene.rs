@@ -678,18 +678,19 @@ fn painted_files_round_trip_and_wrong_sizes_are_refused() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Example meshes and timings (run by hand)
+// Example meshes (timings are in benches/scene.rs)
 
-/// The shipped example meshes are exactly what their generators below make, so they can be
-/// regenerated and reviewed. `BURNISH_WRITE_EXAMPLE_MESHES=1 cargo test --test scene example_meshes`
-/// rewrites them first.
+/// The shipped example meshes are exactly what their generators below make (compared byte
+/// for byte), so they can be regenerated and reviewed. To regenerate them after changing a
+/// generator, run `BURNISH_WRITE_EXAMPLE_MESHES=1 cargo test --test scene example_meshes`:
+/// with the variable set to 1 the test writes assets/meshes first, then checks them.
 #[test]
 fn example_meshes_are_what_the_generators_make() {
     let meshes = [
         ("l-block.obj", l_block(), true),
         ("bowl.obj", bowl(), false),
     ];
-    if std::env::var_os("BURNISH_WRITE_EXAMPLE_MESHES").is_some() {
+    if std::env::var_os("BURNISH_WRITE_EXAMPLE_MESHES").is_some_and(|v| v == "1") {
         std::fs::create_dir_all(assets()).unwrap();
         for (name, mesh, with_normals) in &meshes {
             mesh.write_obj(assets().join(name), *with_normals).unwrap();

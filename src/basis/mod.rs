@@ -219,15 +219,6 @@ impl Basis {
             (data[UPPER + pair] + RANGE_MARGIN) as f64,
         )
     }
-
-    /// ρ at pair `p` from a centred mapped value (clamped to the database's range).
-    #[inline]
-    pub fn rho_from_centred(&self, pair: usize, centred: f64) -> f64 {
-        let data = self.data();
-        let (lo, hi) = self.mapped_range(pair);
-        let m = (centred + data[MEAN + pair] as f64).clamp(lo, hi);
-        unmap_value(m, cos_weight(pair), data[REFERENCE + pair] as f64)
-    }
 }
 
 #[cfg(test)]

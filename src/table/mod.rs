@@ -69,19 +69,6 @@ impl SymTable {
         &self.values
     }
 
-    /// Mutable stored values in pair order.
-    pub fn pairs_mut(&mut self) -> &mut [Rgb] {
-        &mut self.values
-    }
-
-    /// One row of the full table: ρ(d_l, ·) for every view bin, as written to an EXR row.
-    pub fn full_row(&self, d_l: DirIndex, row: &mut [Rgb]) {
-        debug_assert_eq!(row.len(), DIRECTIONS);
-        for (d_v, out) in row.iter_mut().enumerate() {
-            *out = self.get(d_l, d_v as DirIndex);
-        }
-    }
-
     /// True when every value is finite and ≥ 0.
     pub fn is_physical(&self) -> bool {
         self.values

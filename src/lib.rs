@@ -8,15 +8,21 @@
 // clearer there than zipped iterators.
 #![allow(clippy::needless_range_loop)]
 
+pub mod app;
 pub mod basis;
+pub mod bench;
 pub mod cli;
 pub mod error;
 pub mod fs_atomic;
 pub mod image_io;
 pub mod materials;
 pub mod metrics;
+pub mod paint;
+pub mod preview;
 pub mod scene;
+pub mod session;
 pub mod solver;
 pub mod table;
+pub mod worker;
 
 pub use error::{Error, Result};

@@ -1,0 +1,1 @@
+//! `burnish bench`: run time against error, and the live-loop timings.

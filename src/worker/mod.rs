@@ -1,0 +1,1 @@
+//! The background worker: changed pixels in, immutable solution snapshots out.

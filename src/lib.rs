@@ -15,6 +15,7 @@ pub mod cli;
 pub mod error;
 pub mod fs_atomic;
 pub mod image_io;
+pub mod inspect;
 pub mod materials;
 pub mod metrics;
 pub mod paint;

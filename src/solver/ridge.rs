@@ -192,7 +192,9 @@ impl Solver {
             }
         }
         self.changes_since_rebuild += 1;
-        if self.changes_since_rebuild >= Self::REBUILD_INTERVAL {
+        // With no bin left, exact zeros cost nothing and keep rounding residue from giving
+        // an empty painting anything but the mean material.
+        if self.changes_since_rebuild >= Self::REBUILD_INTERVAL || self.observed.is_empty() {
             self.rebuild();
         }
     }

@@ -181,6 +181,13 @@ impl SparseTable {
             .map(|(&p, _)| p)
     }
 
+    /// Whether the bin's samples disagree beyond the inconsistency factor.
+    pub fn is_inconsistent(&self, pair: u32) -> bool {
+        self.bins
+            .get(&pair)
+            .is_some_and(|b| b.samples.len() > 1 && b.spread() > self.inconsistency_ratio)
+    }
+
     pub fn inconsistent_count(&self) -> usize {
         self.inconsistent_bins().count()
     }

@@ -1,1 +1,495 @@
 //! The background worker: changed pixels in, immutable solution snapshots out.
+//!
+//! The UI sends [`Command`]s over a crossbeam channel and never waits: the worker drains
+//! everything queued, applies it to the sparse table and the normal equations incrementally,
+//! solves once for the whole batch and publishes a [`Snapshot`] through arc-swap. Changes of
+//! the sparse table itself (for the sparse-only preview and the overlays) go out as
+//! [`BinUpdate`] batches on a second channel, so none is lost when the UI skips snapshots.
+//!
+//! The worker mirrors what each view has painted (pixel → linear colour), so muting a view,
+//! moving its light or swapping the basis re-derives the samples without asking the canvas.
+
+use crate::basis::Basis;
+use crate::scene::{GBuffer, sample_pixel};
+use crate::solver::{BinChange, Policy, Regularization, SampleKey, Solver, SparseTable};
+use arc_swap::ArcSwap;
+use crossbeam_channel::{Receiver, Sender, TryRecvError, unbounded};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// A view's identity, shared by the canvas, the worker and the sparse table's sample keys.
+pub type ViewId = u32;
+
+/// One pixel of a view whose paint changed. `None` means the pixel carries no paint (it gives
+/// no sample); `Some` is its linear RGB radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelEdit {
+    pub pixel: u32,
+    pub before: Option<[f32; 3]>,
+    pub after: Option<[f32; 3]>,
+}
+
+/// What the UI asks of the worker.
+#[derive(Clone, Debug)]
+pub enum Command {
+    /// A view appears, or its scene changed: its pixels map to new bins. Painted pixels the
+    /// worker already holds for it are re-binned.
+    SetView {
+        view: ViewId,
+        gbuffer: Arc<GBuffer>,
+    },
+    /// A view is closed: its samples and paint are forgotten.
+    RemoveView(ViewId),
+    /// A muted view keeps its paint but gives no samples.
+    MuteView {
+        view: ViewId,
+        muted: bool,
+    },
+    /// Pixels of a view changed. `input_time` is when the pointer event that caused them
+    /// happened, for latency measurement.
+    Pixels {
+        view: ViewId,
+        edits: Vec<PixelEdit>,
+        input_time: Instant,
+    },
+    /// Replace every painted pixel of a view at once (import, undo of a fill, session open).
+    ReplacePaint {
+        view: ViewId,
+        painted: Vec<(u32, [f32; 3])>,
+    },
+    SetPolicy(Policy),
+    SetRegularization(Regularization),
+    /// A (new) basis is ready; until the first one arrives, samples accumulate unsolved.
+    SetBasis(Arc<Basis>),
+    /// Answers with the version of the snapshot that includes every command sent before it.
+    Sync(Sender<u64>),
+}
+
+/// What one solve gives the UI. Immutable; replaced as a whole.
+#[derive(Clone, Debug, Default)]
+pub struct Snapshot {
+    /// Increases with every publication.
+    pub version: u64,
+    /// The basis the coefficients refer to; `None` until one is ready.
+    pub basis: Option<Arc<Basis>>,
+    /// x_kc for each component; empty without a basis.
+    pub coefficients: Arc<Vec<[f64; 3]>>,
+    pub stats: SolveStats,
+    /// The earliest pointer event among the inputs this snapshot is the first to include.
+    pub oldest_input: Option<Instant>,
+}
+
+/// Figures for the status bar.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveStats {
+    /// Samples (painted, usable pixels of unmuted views).
+    pub samples: usize,
+    pub observed_bins: usize,
+    pub inconsistent_bins: usize,
+    /// Painted pixels that give no sample (shadow, grazing, background).
+    pub skipped_pixels: usize,
+    pub components: usize,
+    pub condition_number: f64,
+    /// The regularisation strength used (α of the prior, or λ).
+    pub alpha: f64,
+    /// Time of the last batch: sparse update, normal equations and solve.
+    pub update_ms: f64,
+    /// Commands the last batch drained.
+    pub batch_commands: usize,
+}
+
+/// One sparse-table bin whose value or consistency changed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BinUpdate {
+    pub pair: u32,
+    /// The bin's value, `None` once it holds no sample.
+    pub value: Option<[f32; 3]>,
+    pub inconsistent: bool,
+}
+
+/// The UI's end of the worker.
+pub struct Worker {
+    commands: Sender<Command>,
+    snapshot: Arc<ArcSwap<Snapshot>>,
+    bin_updates: Receiver<Vec<BinUpdate>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Worker {
+    /// Starts the worker thread.
+    pub fn spawn(policy: Policy, regularization: Regularization) -> Self {
+        let (commands, inbox) = unbounded();
+        let (updates_out, bin_updates) = unbounded();
+        let snapshot = Arc::new(ArcSwap::from_pointee(Snapshot::default()));
+        let published = snapshot.clone();
+        let thread = std::thread::Builder::new()
+            .name("burnish-worker".into())
+            .spawn(move || {
+                let mut state = WorkerState::new(policy, regularization, published, updates_out);
+                state.run(inbox);
+            })
+            .expect("spawning the worker thread");
+        Self {
+            commands,
+            snapshot,
+            bin_updates,
+            thread: Some(thread),
+        }
+    }
+
+    /// Queues a command; never blocks.
+    pub fn send(&self, command: Command) {
+        // The worker only stops when this handle drops, so the channel is open.
+        let _ = self.commands.send(command);
+    }
+
+    /// The newest published snapshot; never blocks.
+    pub fn snapshot(&self) -> Arc<Snapshot> {
+        self.snapshot.load_full()
+    }
+
+    /// Commands waiting in the queue (for the benchmark's "keeps up" check).
+    pub fn queued(&self) -> usize {
+        self.commands.len()
+    }
+
+    /// Bin updates published since the last call, oldest first; never blocks.
+    pub fn take_bin_updates(&self) -> Vec<BinUpdate> {
+        self.bin_updates.try_iter().flatten().collect()
+    }
+
+    /// Blocks until every command sent so far is processed and returns the snapshot that
+    /// includes them, or `None` when `timeout` passes first. For tests, benchmarks and
+    /// saving; the UI thread never calls it while painting.
+    pub fn sync(&self, timeout: Duration) -> Option<Arc<Snapshot>> {
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        self.send(Command::Sync(tx));
+        rx.recv_timeout(timeout).ok()?;
+        Some(self.snapshot())
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        // Closing the channel ends the thread's loop.
+        let (closed, _) = unbounded();
+        self.commands = closed;
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+struct ViewState {
+    gbuffer: Arc<GBuffer>,
+    muted: bool,
+    /// Painted pixels and their radiance, whether or not they give a sample.
+    painted: HashMap<u32, [f32; 3]>,
+}
+
+struct WorkerState {
+    views: BTreeMap<ViewId, ViewState>,
+    sparse: SparseTable,
+    solver: Option<Solver>,
+    regularization: Regularization,
+    inconsistent: HashSet<u32>,
+    skipped: usize,
+    version: u64,
+    published: Arc<ArcSwap<Snapshot>>,
+    updates_out: Sender<Vec<BinUpdate>>,
+    last_stats: SolveStats,
+    last_coefficients: Arc<Vec<[f64; 3]>>,
+}
+
+impl WorkerState {
+    fn new(
+        policy: Policy,
+        regularization: Regularization,
+        published: Arc<ArcSwap<Snapshot>>,
+        updates_out: Sender<Vec<BinUpdate>>,
+    ) -> Self {
+        Self {
+            views: BTreeMap::new(),
+            sparse: SparseTable::new(policy),
+            solver: None,
+            regularization,
+            inconsistent: HashSet::new(),
+            skipped: 0,
+            version: 0,
+            published,
+            updates_out,
+            last_stats: SolveStats::default(),
+            last_coefficients: Arc::new(Vec::new()),
+        }
+    }
+
+    fn run(&mut self, inbox: Receiver<Command>) {
+        while let Ok(first) = inbox.recv() {
+            let started = Instant::now();
+            let mut batch = vec![first];
+            loop {
+                match inbox.try_recv() {
+                    Ok(command) => batch.push(command),
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => break,
+                }
+            }
+            let batch_commands = batch.len();
+            let mut changes = Vec::new();
+            let mut syncs = Vec::new();
+            let mut oldest_input: Option<Instant> = None;
+            let mut resolve = false;
+            // Changes before a basis install are already in the new solver's first build.
+            let mut solver_start = 0;
+            for command in batch {
+                match command {
+                    Command::Pixels {
+                        view,
+                        edits,
+                        input_time,
+                    } => {
+                        oldest_input = Some(oldest_input.map_or(input_time, |t| t.min(input_time)));
+                        self.apply_edits(view, &edits, &mut changes);
+                    }
+                    Command::Sync(reply) => syncs.push(reply),
+                    Command::SetBasis(basis) => {
+                        self.install_basis(basis);
+                        solver_start = changes.len();
+                        resolve = true;
+                    }
+                    Command::SetRegularization(regularization) => {
+                        self.regularization = regularization;
+                        if let Some(solver) = &mut self.solver {
+                            solver.set_regularization(regularization);
+                        }
+                        resolve = true;
+                    }
+                    other => self.apply_view_command(other, &mut changes),
+                }
+            }
+            if !changes.is_empty() || resolve || self.version == 0 {
+                self.publish(
+                    &changes,
+                    solver_start,
+                    started,
+                    batch_commands,
+                    oldest_input,
+                );
+            }
+            for reply in syncs {
+                let _ = reply.send(self.version);
+            }
+        }
+    }
+
+    fn apply_view_command(&mut self, command: Command, changes: &mut Vec<BinChange>) {
+        match command {
+            Command::SetView { view, gbuffer } => {
+                self.sparse.remove_view(view, changes);
+                let state = self.views.entry(view).or_insert_with(|| ViewState {
+                    gbuffer: gbuffer.clone(),
+                    muted: false,
+                    painted: HashMap::new(),
+                });
+                state.gbuffer = gbuffer;
+                self.resample_view(view, changes);
+            }
+            Command::RemoveView(view) => {
+                self.sparse.remove_view(view, changes);
+                self.views.remove(&view);
+                self.recount_skipped();
+            }
+            Command::MuteView { view, muted } => {
+                if let Some(state) = self.views.get_mut(&view) {
+                    if state.muted != muted {
+                        state.muted = muted;
+                        self.sparse.remove_view(view, changes);
+                        self.resample_view(view, changes);
+                    }
+                }
+            }
+            Command::ReplacePaint { view, painted } => {
+                if let Some(state) = self.views.get_mut(&view) {
+                    state.painted = painted.into_iter().collect();
+                    self.sparse.remove_view(view, changes);
+                    self.resample_view(view, changes);
+                }
+            }
+            Command::SetPolicy(policy) => self.sparse.set_policy(policy, changes),
+            Command::Pixels { .. }
+            | Command::Sync(_)
+            | Command::SetBasis(_)
+            | Command::SetRegularization(_) => {
+                unreachable!("handled in the batch loop")
+            }
+        }
+    }
+
+    /// Re-derives every sample of a view from its painted pixels (after removing them).
+    fn resample_view(&mut self, view: ViewId, changes: &mut Vec<BinChange>) {
+        if let Some(state) = self.views.get(&view) {
+            if !state.muted {
+                let mut pixels: Vec<_> = state.painted.iter().map(|(&p, &c)| (p, c)).collect();
+                pixels.sort_unstable_by_key(|&(p, _)| p);
+                for (pixel, colour) in pixels {
+                    set_pixel(
+                        &mut self.sparse,
+                        &state.gbuffer,
+                        view,
+                        pixel,
+                        Some(colour),
+                        changes,
+                    );
+                }
+            }
+        }
+        self.recount_skipped();
+    }
+
+    fn recount_skipped(&mut self) {
+        let painted: usize = self
+            .views
+            .values()
+            .filter(|v| !v.muted)
+            .map(|v| v.painted.len())
+            .sum();
+        self.skipped = painted.saturating_sub(self.sparse.sample_count());
+    }
+
+    fn apply_edits(&mut self, view: ViewId, edits: &[PixelEdit], changes: &mut Vec<BinChange>) {
+        let Some(state) = self.views.get_mut(&view) else {
+            return;
+        };
+        for edit in edits {
+            match edit.after {
+                Some(colour) => state.painted.insert(edit.pixel, colour),
+                None => state.painted.remove(&edit.pixel),
+            };
+            if !state.muted {
+                set_pixel(
+                    &mut self.sparse,
+                    &state.gbuffer,
+                    view,
+                    edit.pixel,
+                    edit.after,
+                    changes,
+                );
+            }
+        }
+        self.recount_skipped();
+    }
+
+    fn install_basis(&mut self, basis: Arc<Basis>) {
+        let mut solver = Solver::new(basis, self.regularization);
+        let existing: Vec<BinChange> = self
+            .sparse
+            .observed()
+            .map(|(pair, value)| BinChange {
+                pair,
+                before: None,
+                after: Some(value),
+            })
+            .collect();
+        solver.apply_all(&existing);
+        solver.rebuild();
+        self.solver = Some(solver);
+    }
+
+    fn publish(
+        &mut self,
+        changes: &[BinChange],
+        solver_start: usize,
+        started: Instant,
+        batch_commands: usize,
+        oldest_input: Option<Instant>,
+    ) {
+        let updates = self.bin_updates(changes);
+        if let Some(solver) = &mut self.solver {
+            solver.apply_all(&changes[solver_start..]);
+        }
+        let (coefficients, condition_number, alpha, components, basis) = match &self.solver {
+            Some(solver) => {
+                let solution = solver.solve();
+                (
+                    Arc::new(solution.coefficients),
+                    solution.condition_number,
+                    solution.alpha,
+                    solver.basis().components(),
+                    Some(solver.basis().clone()),
+                )
+            }
+            None => (self.last_coefficients.clone(), 0.0, 0.0, 0, None),
+        };
+        self.version += 1;
+        self.last_coefficients = coefficients.clone();
+        self.last_stats = SolveStats {
+            samples: self.sparse.sample_count(),
+            observed_bins: self.sparse.observed_count(),
+            inconsistent_bins: self.inconsistent.len(),
+            skipped_pixels: self.skipped,
+            components,
+            condition_number,
+            alpha,
+            update_ms: started.elapsed().as_secs_f64() * 1e3,
+            batch_commands,
+        };
+        if !updates.is_empty() {
+            let _ = self.updates_out.send(updates);
+        }
+        self.published.store(Arc::new(Snapshot {
+            version: self.version,
+            basis,
+            coefficients,
+            stats: self.last_stats,
+            oldest_input,
+        }));
+    }
+
+    /// The bins a batch touched, each once with its final state, in pair order.
+    fn bin_updates(&mut self, changes: &[BinChange]) -> Vec<BinUpdate> {
+        let touched: std::collections::BTreeSet<u32> = changes.iter().map(|c| c.pair).collect();
+        touched
+            .into_iter()
+            .map(|pair| {
+                let inconsistent = self.sparse.is_inconsistent(pair);
+                if inconsistent {
+                    self.inconsistent.insert(pair);
+                } else {
+                    self.inconsistent.remove(&pair);
+                }
+                BinUpdate {
+                    pair,
+                    value: self.sparse.bin_value(pair).map(|v| v.map(|c| c as f32)),
+                    inconsistent,
+                }
+            })
+            .collect()
+    }
+}
+
+/// Puts one pixel's sample into the sparse table, or takes it out (no paint, or the pixel
+/// gives no usable sample).
+fn set_pixel(
+    sparse: &mut SparseTable,
+    gbuffer: &GBuffer,
+    view: ViewId,
+    pixel: u32,
+    radiance: Option<[f32; 3]>,
+    changes: &mut Vec<BinChange>,
+) {
+    let key = SampleKey { view, pixel };
+    let sample = radiance.and_then(|r| sample_pixel(gbuffer, pixel as usize, r).ok());
+    match sample {
+        Some(sample) => {
+            if sparse
+                .set_sample(key, sample.light_bin, sample.view_bin, sample.rho, changes)
+                .is_err()
+            {
+                sparse.remove_sample(key, changes);
+            }
+        }
+        None => sparse.remove_sample(key, changes),
+    }
+}

@@ -1,0 +1,274 @@
+//! The background worker: pixels in over the channel, snapshots out through arc-swap.
+//! Its incremental state must equal a batch solve of the same paint, whatever the batching.
+
+mod common;
+
+use burnish::scene::{GBuffer, Object, Scene, render_brdf, samples_from_image};
+use burnish::solver::{Policy, Regularization, SampleKey, Solver, SparseTable};
+use burnish::worker::{Command, PixelEdit, Worker};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+fn view(light_azimuth: f64) -> (Scene, Arc<GBuffer>) {
+    let mut scene = Scene {
+        resolution: 96,
+        ..Scene::default()
+    };
+    scene.light.azimuth_deg = light_azimuth;
+    let object = Object::load(&scene.object_source()).unwrap();
+    let gbuffer = Arc::new(GBuffer::build(&scene, &object));
+    (scene, gbuffer)
+}
+
+/// A perfect painting of a held-out material on the view.
+fn painting(gbuffer: &GBuffer) -> Vec<(u32, [f32; 3])> {
+    let material = burnish::materials::database::material(0xfeed, 3);
+    let image = render_brdf(gbuffer, material.brdf.as_ref());
+    gbuffer
+        .pixels()
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_some())
+        .map(|(i, _)| (i as u32, image.pixels[i]))
+        .collect()
+}
+
+fn sync(worker: &Worker) -> Arc<burnish::worker::Snapshot> {
+    worker
+        .sync(Duration::from_secs(60))
+        .expect("the worker answers")
+}
+
+/// The coefficients a from-scratch batch solve gives for these samples.
+fn batch_solution(
+    basis: Arc<burnish::basis::Basis>,
+    views: &[(u32, &GBuffer, &[(u32, [f32; 3])])],
+) -> Vec<[f64; 3]> {
+    let mut sparse = SparseTable::new(Policy::Mean);
+    let mut changes = Vec::new();
+    for &(view, gbuffer, paint) in views {
+        for &(pixel, colour) in paint {
+            if let Ok(s) = burnish::scene::sample_pixel(gbuffer, pixel as usize, colour) {
+                sparse
+                    .set_sample(
+                        SampleKey { view, pixel },
+                        s.light_bin,
+                        s.view_bin,
+                        s.rho,
+                        &mut changes,
+                    )
+                    .unwrap();
+            }
+        }
+    }
+    let mut solver = Solver::new(basis, Regularization::Auto);
+    let all: Vec<_> = sparse
+        .observed()
+        .map(|(pair, v)| burnish::solver::BinChange {
+            pair,
+            before: None,
+            after: Some(v),
+        })
+        .collect();
+    solver.apply_all(&all);
+    solver.rebuild();
+    solver.solve().coefficients
+}
+
+fn close(a: &[[f64; 3]], b: &[[f64; 3]], tolerance: f64) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| (0..3).all(|c| (x[c] - y[c]).abs() <= tolerance * (1.0 + y[c].abs())))
+}
+
+#[test]
+fn dabs_in_any_batching_give_the_batch_solution() {
+    let basis = common::small_basis(8);
+    let (_, gbuffer) = view(30.0);
+    let paint = painting(&gbuffer);
+    let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    worker.send(Command::SetView {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    worker.send(Command::SetBasis(basis.clone()));
+    let empty = sync(&worker);
+    assert_eq!(empty.stats.samples, 0);
+    assert!(empty.coefficients.iter().all(|c| *c == [0.0; 3]));
+
+    // Dabs of uneven size, sent without waiting: the worker drains them in batches.
+    let mut sent = 0;
+    for (i, chunk) in paint.chunks(97).enumerate() {
+        let edits = chunk
+            .iter()
+            .map(|&(pixel, colour)| PixelEdit {
+                pixel,
+                before: None,
+                after: Some(colour),
+            })
+            .collect();
+        worker.send(Command::Pixels {
+            view: 0,
+            edits,
+            input_time: Instant::now(),
+        });
+        sent += 1;
+        if i % 7 == 0 {
+            std::thread::yield_now();
+        }
+    }
+    let snapshot = sync(&worker);
+    assert!(sent > 10);
+    let expected = batch_solution(basis.clone(), &[(0, &gbuffer, &paint)]);
+    assert!(
+        close(&snapshot.coefficients, &expected, 1e-9),
+        "incremental {:?} vs batch {:?}",
+        &snapshot.coefficients[..2],
+        &expected[..2]
+    );
+    assert!(snapshot.stats.samples > 1000);
+    assert!(snapshot.oldest_input.is_some());
+
+    // The bin updates mirror the sparse table: every observed bin arrives, with its value.
+    let updates = worker.take_bin_updates();
+    let mut mirrored = std::collections::HashMap::new();
+    for u in updates {
+        match u.value {
+            Some(v) => mirrored.insert(u.pair, v),
+            None => mirrored.remove(&u.pair),
+        };
+    }
+    assert_eq!(mirrored.len(), snapshot.stats.observed_bins);
+}
+
+#[test]
+fn erasing_every_pixel_returns_to_the_mean_material() {
+    let basis = common::small_basis(8);
+    let (_, gbuffer) = view(30.0);
+    let paint = painting(&gbuffer);
+    let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    worker.send(Command::SetView {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    worker.send(Command::SetBasis(basis));
+    worker.send(Command::ReplacePaint {
+        view: 0,
+        painted: paint.clone(),
+    });
+    assert!(sync(&worker).stats.samples > 0);
+    worker.send(Command::Pixels {
+        view: 0,
+        edits: paint
+            .iter()
+            .map(|&(pixel, colour)| PixelEdit {
+                pixel,
+                before: Some(colour),
+                after: None,
+            })
+            .collect(),
+        input_time: Instant::now(),
+    });
+    let snapshot = sync(&worker);
+    assert_eq!(snapshot.stats.samples, 0);
+    assert_eq!(snapshot.stats.observed_bins, 0);
+    assert!(
+        snapshot
+            .coefficients
+            .iter()
+            .all(|c| c.iter().all(|v| v.abs() < 1e-9)),
+        "no sample, no deviation from the mean"
+    );
+}
+
+#[test]
+fn paint_before_the_basis_is_solved_when_it_arrives() {
+    let basis = common::small_basis(8);
+    let (_, gbuffer) = view(30.0);
+    let paint = painting(&gbuffer);
+    let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    worker.send(Command::SetView {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    worker.send(Command::ReplacePaint {
+        view: 0,
+        painted: paint.clone(),
+    });
+    let waiting = sync(&worker);
+    assert!(waiting.basis.is_none());
+    assert!(waiting.stats.samples > 0, "samples gather without a basis");
+    assert!(waiting.coefficients.is_empty());
+    worker.send(Command::SetBasis(basis.clone()));
+    let solved = sync(&worker);
+    assert!(solved.basis.is_some());
+    let expected = batch_solution(basis, &[(0, &gbuffer, &paint)]);
+    assert!(close(&solved.coefficients, &expected, 1e-9));
+}
+
+#[test]
+fn views_mute_move_and_close() {
+    let basis = common::small_basis(8);
+    let (mut scene_b, gbuffer_a) = view(30.0);
+    let (_, gbuffer_b) = view(-70.0);
+    let (paint_a, paint_b) = (painting(&gbuffer_a), painting(&gbuffer_b));
+    let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    worker.send(Command::SetBasis(basis.clone()));
+    for (id, g, p) in [(0, &gbuffer_a, &paint_a), (1, &gbuffer_b, &paint_b)] {
+        worker.send(Command::SetView {
+            view: id,
+            gbuffer: g.clone(),
+        });
+        worker.send(Command::ReplacePaint {
+            view: id,
+            painted: p.clone(),
+        });
+    }
+    let both = sync(&worker);
+    let expected = batch_solution(
+        basis.clone(),
+        &[(0, &gbuffer_a, &paint_a), (1, &gbuffer_b, &paint_b)],
+    );
+    assert!(close(&both.coefficients, &expected, 1e-9));
+
+    worker.send(Command::MuteView {
+        view: 1,
+        muted: true,
+    });
+    let muted = sync(&worker);
+    let only_a = batch_solution(basis.clone(), &[(0, &gbuffer_a, &paint_a)]);
+    assert!(close(&muted.coefficients, &only_a, 1e-9));
+    worker.send(Command::MuteView {
+        view: 1,
+        muted: false,
+    });
+    assert!(close(&sync(&worker).coefficients, &expected, 1e-9));
+
+    // Moving view 1's light re-bins the paint it holds.
+    scene_b.light.azimuth_deg = 120.0;
+    let object = Object::load(&scene_b.object_source()).unwrap();
+    let moved = Arc::new(GBuffer::build(&scene_b, &object));
+    worker.send(Command::SetView {
+        view: 1,
+        gbuffer: moved.clone(),
+    });
+    let expected_moved = batch_solution(
+        basis.clone(),
+        &[(0, &gbuffer_a, &paint_a), (1, &moved, &paint_b)],
+    );
+    assert!(close(&sync(&worker).coefficients, &expected_moved, 1e-9));
+
+    worker.send(Command::RemoveView(1));
+    let closed = sync(&worker);
+    assert!(close(&closed.coefficients, &only_a, 1e-9));
+    let samples_a = samples_from_image(&gbuffer_a, &{
+        let mut image = burnish::scene::guide_image(&gbuffer_a);
+        for &(p, c) in &paint_a {
+            image.pixels[p as usize] = c;
+        }
+        image
+    })
+    .samples
+    .len();
+    assert_eq!(closed.stats.samples, samples_a);
+}

@@ -1,1 +1,231 @@
-//! Session files: every view's scene and painting, brush and basis settings, in one file; autosave and recovery.
+//! Session files: every view's scene and painting, the brush and the basis settings, in one
+//! `.burnish` file; autosave and crash recovery.
+//!
+//! A session file is a zip archive (see [`file`] for its entries). Saving is atomic and
+//! opening validates everything before anything is returned, so a bad file never half-opens.
+
+mod autosave;
+mod file;
+
+pub use autosave::{
+    AUTOSAVE_INTERVAL, Autosaver, RecoveryInfo, pending_recovery, pending_recovery_at,
+    recovery_path,
+};
+pub use file::{EXTENSION, FORMAT_VERSION, object_cache_dir};
+
+use crate::basis::BasisSpec;
+use crate::error::Result;
+use crate::materials::database::DatabaseSpec;
+use crate::paint::{BrushSettings, PaintLayers};
+use crate::scene::{GBuffer, Object, Scene, guide_image};
+use crate::solver::{Policy, Regularization};
+
+/// Everything the artist made: the views with their paintings, the brush and the basis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Session {
+    /// At least one view.
+    pub views: Vec<SessionView>,
+    /// Index into `views` of the view being painted.
+    pub active_view: usize,
+    pub brush: BrushSettings,
+    pub basis: BasisSettings,
+}
+
+/// One view: a scene and the painting over its guide.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionView {
+    pub name: String,
+    pub scene: Scene,
+    /// A muted view keeps its painting but gives no samples.
+    pub muted: bool,
+    /// `scene.resolution²` pixels.
+    pub paint: PaintLayers,
+}
+
+/// How the painting becomes a table: which basis, and how the solver treats the samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BasisSettings {
+    /// K, the basis components kept (1 to [`BasisSpec::MAX_COMPONENTS`]).
+    pub components: usize,
+    /// Materials in the database the basis is built from.
+    pub materials: usize,
+    pub regularization: Regularization,
+    /// How several samples in one bin are combined.
+    pub policy: Policy,
+}
+
+impl Default for BasisSettings {
+    fn default() -> Self {
+        Self {
+            components: BasisSpec::DEFAULT_COMPONENTS,
+            materials: DatabaseSpec::default().size,
+            regularization: Regularization::Auto,
+            policy: Policy::Mean,
+        }
+    }
+}
+
+impl SessionView {
+    /// A view of `scene` with nothing painted yet: its layer is the scene's guide image.
+    /// Loads the scene's object and traces its geometry buffer.
+    pub fn new(name: impl Into<String>, scene: Scene) -> Result<Self> {
+        let object = Object::load(&scene.object_source())?;
+        let guide = guide_image(&GBuffer::build(&scene, &object));
+        Ok(Self {
+            name: name.into(),
+            scene,
+            muted: false,
+            paint: PaintLayers::unpainted(&guide),
+        })
+    }
+}
+
+impl Default for Session {
+    /// One unpainted view of the default scene (the built-in sphere).
+    fn default() -> Self {
+        let view = SessionView::new("View 1", Scene::default())
+            .expect("the default scene's built-in sphere needs no file");
+        Self {
+            views: vec![view],
+            active_view: 0,
+            brush: BrushSettings::default(),
+            basis: BasisSettings::default(),
+        }
+    }
+}
+
+impl Session {
+    /// Every value in range, as a sentence naming what is wrong when not. [`Session::save`]
+    /// refuses a session that fails this; [`Session::open`] refuses a file that would.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        if self.views.is_empty() {
+            return Err("a session needs at least one view".into());
+        }
+        if self.active_view >= self.views.len() {
+            return Err(format!(
+                "active_view = {} but there are only {} views",
+                self.active_view,
+                self.views.len()
+            ));
+        }
+        check_brush(&self.brush).map_err(|p| format!("brush: {p}"))?;
+        check_basis(&self.basis).map_err(|p| format!("basis: {p}"))?;
+        for (i, view) in self.views.iter().enumerate() {
+            view.check()
+                .map_err(|p| format!("view {} ({:?}): {p}", i + 1, view.name))?;
+        }
+        Ok(())
+    }
+}
+
+impl SessionView {
+    /// The scene in range and the painting the scene's size, finite, coverage in [0, 1].
+    pub fn check(&self) -> std::result::Result<(), String> {
+        self.scene.check()?;
+        let side = self.scene.resolution as usize;
+        check_colour(&self.paint.colour, side)?;
+        check_coverage(&self.paint.coverage, side)
+    }
+}
+
+pub(crate) fn check_colour(
+    colour: &crate::image_io::RgbImage,
+    side: usize,
+) -> std::result::Result<(), String> {
+    if colour.width != side || colour.height != side {
+        return Err(format!(
+            "the colour layer is {} × {} pixels but the scene's resolution is {side}",
+            colour.width, colour.height
+        ));
+    }
+    if colour.pixels.len() != side * side {
+        return Err(format!(
+            "the colour layer has {} pixels, not {side} × {side}",
+            colour.pixels.len()
+        ));
+    }
+    if let Some(i) = colour
+        .pixels
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite()))
+    {
+        return Err(format!(
+            "the colour layer's pixel ({}, {}) is {:?}: colours must be finite",
+            i % side,
+            i / side,
+            colour.pixels[i]
+        ));
+    }
+    Ok(())
+}
+
+pub(crate) fn check_coverage(coverage: &[f32], side: usize) -> std::result::Result<(), String> {
+    if coverage.len() != side * side {
+        return Err(format!(
+            "the coverage layer has {} pixels but the scene's resolution is {side} ({} pixels)",
+            coverage.len(),
+            side * side
+        ));
+    }
+    if let Some(i) = coverage.iter().position(|c| !(0.0..=1.0).contains(c)) {
+        return Err(format!(
+            "the coverage layer's pixel ({}, {}) is {}: coverage must be in [0, 1]",
+            i % side,
+            i / side,
+            coverage[i]
+        ));
+    }
+    Ok(())
+}
+
+fn check_brush(brush: &BrushSettings) -> std::result::Result<(), String> {
+    if !(brush.size.is_finite() && brush.size > 0.0) {
+        return Err(format!("size = {} must be a positive number", brush.size));
+    }
+    for (name, value) in [
+        ("hardness", brush.hardness),
+        ("opacity", brush.opacity),
+        ("flow", brush.flow),
+    ] {
+        if !(0.0..=1.0).contains(&value) {
+            return Err(format!("{name} = {value} must be in [0, 1]"));
+        }
+    }
+    if !(brush.spacing.is_finite() && brush.spacing > 0.0) {
+        return Err(format!(
+            "spacing = {} must be a positive number",
+            brush.spacing
+        ));
+    }
+    if brush.colour.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+        return Err(format!(
+            "colour = {:?} must be finite and not negative",
+            brush.colour
+        ));
+    }
+    Ok(())
+}
+
+fn check_basis(basis: &BasisSettings) -> std::result::Result<(), String> {
+    if !(1..=BasisSpec::MAX_COMPONENTS).contains(&basis.components) {
+        return Err(format!(
+            "components = {} must be 1 to {}",
+            basis.components,
+            BasisSpec::MAX_COMPONENTS
+        ));
+    }
+    if basis.materials == 0 {
+        return Err("materials = 0: the database needs at least one material".into());
+    }
+    match basis.regularization {
+        Regularization::Prior { alpha: x } | Regularization::Ridge { lambda: x }
+            if !(x.is_finite() && x > 0.0) =>
+        {
+            Err(format!(
+                "regularization = {} must have a positive finite weight",
+                basis.regularization
+            ))
+        }
+        _ => Ok(()),
+    }
+}

@@ -63,6 +63,18 @@ impl std::str::FromStr for Regularization {
     }
 }
 
+/// The text [`FromStr`](std::str::FromStr) reads back: `auto`, `gcv`, `prior:α` or `ridge:λ`.
+impl std::fmt::Display for Regularization {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Auto => f.write_str("auto"),
+            Self::Gcv => f.write_str("gcv"),
+            Self::Prior { alpha } => write!(f, "prior:{alpha}"),
+            Self::Ridge { lambda } => write!(f, "ridge:{lambda}"),
+        }
+    }
+}
+
 /// Coefficients and diagnostics of one solve.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Solution {

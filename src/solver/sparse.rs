@@ -40,6 +40,17 @@ impl std::str::FromStr for Policy {
     }
 }
 
+/// The name [`FromStr`](std::str::FromStr) reads back.
+impl std::fmt::Display for Policy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Mean => "mean",
+            Self::Min => "min",
+            Self::Max => "max",
+        })
+    }
+}
+
 /// A bin whose value changed: `before`/`after` are `None` when the bin was/is empty.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BinChange {

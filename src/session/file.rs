@@ -1,0 +1,533 @@
+//! The `.burnish` file: a zip archive with these entries (views numbered from 1):
+//!
+//! - `session.toml`: `format_version`, `active_view` (from 0), an optional `session_path`
+//!   (recovery files only: the user's own file), `[brush]`, `[basis]` and one `[[views]]`
+//!   table per view with its `name`, `muted` flag and `base_dir` (the folder its scene's
+//!   relative object path resolves against).
+//! - `views/N/scene.toml`: the view's scene, a SCENE.md file; its `object` is kept as given.
+//! - `views/N/colour.exr`: the colour layer, R, G and B as 32-bit floats (linear, HDR).
+//! - `views/N/coverage.exr`: the coverage layer, one 32-bit float channel `Y`.
+//! - `views/N/object.obj`: for a scene with an .obj object, a copy of that file's bytes, so
+//!   the session opens on a machine without the original. On opening, the original path is
+//!   used where it holds these very bytes; otherwise the copy is extracted to
+//!   [`object_cache_dir`]`/<hash>/<file name>` and the scene's `object` becomes that path.
+
+use super::{BasisSettings, Session, SessionView, check_colour, check_coverage};
+use crate::error::{Error, Result};
+use crate::fs_atomic::write_atomically;
+use crate::image_io::RgbImage;
+use crate::paint::{BrushSettings, PaintLayers};
+use crate::scene::{ObjectSource, Scene};
+use exr::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::fs::File;
+use std::io::{BufReader, Cursor, Read, Write};
+use std::path::{Path, PathBuf};
+use zip::ZipArchive;
+use zip::write::{SimpleFileOptions, ZipWriter};
+
+/// The file name extension of session files.
+pub const EXTENSION: &str = "burnish";
+
+/// The `format_version` this build writes and reads. A file from a newer version is refused
+/// with a message saying so, never misread.
+pub const FORMAT_VERSION: u32 = 1;
+
+const MANIFEST: &str = "session.toml";
+
+/// Entries are deflated at the fastest level: painted float layers barely compress, while
+/// the background and the unpainted coverage (zeros) compress well even at level 1.
+const DEFLATE_LEVEL: i64 = 1;
+
+/// The most bytes a manifest or scene entry may inflate to; a real one is a few kilobytes.
+const TEXT_LIMIT: u64 = 16 << 20;
+/// The most bytes an embedded .obj may inflate to.
+const OBJECT_LIMIT: u64 = 4 << 30;
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    format_version: u32,
+    active_view: usize,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    session_path: Option<String>,
+    brush: BrushSettings,
+    basis: BasisManifest,
+    views: Vec<ViewManifest>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BasisManifest {
+    components: usize,
+    materials: usize,
+    /// `auto`, `gcv`, `prior:α` or `ridge:λ`.
+    regularization: String,
+    /// `mean`, `min` or `max`.
+    policy: String,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ViewManifest {
+    name: String,
+    muted: bool,
+    base_dir: String,
+}
+
+/// What a session file's manifest says, without reading its images.
+pub(crate) struct Summary {
+    pub views: usize,
+    pub session_path: Option<PathBuf>,
+}
+
+fn entry(view: usize, name: &str) -> String {
+    format!("views/{}/{name}", view + 1)
+}
+
+/// Where extracted copies of embedded objects go: `$BURNISH_CACHE_DIR/session-objects` if that
+/// variable is set, else `session-objects` in the user's cache folder (e.g. ~/.cache/burnish).
+pub fn object_cache_dir() -> Result<PathBuf> {
+    let base = match std::env::var_os("BURNISH_CACHE_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => directories::ProjectDirs::from("", "", "burnish")
+            .ok_or_else(|| {
+                Error::invalid(
+                    Path::new("~"),
+                    "no home folder to extract session objects into (set BURNISH_CACHE_DIR)",
+                )
+            })?
+            .cache_dir()
+            .to_path_buf(),
+    };
+    Ok(base.join("session-objects"))
+}
+
+impl Session {
+    /// Writes the session to `path` atomically: on any failure the file there is untouched.
+    /// Refuses a session that fails [`Session::check`] or whose .obj objects can't be read.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        write_session(self, path.as_ref(), None)
+    }
+
+    /// Reads and validates a session file. Embedded objects whose original file is gone or
+    /// changed are extracted to [`object_cache_dir`].
+    pub fn open(path: impl AsRef<Path>) -> Result<Session> {
+        read_session(path.as_ref(), &object_cache_dir).map(|(session, _)| session)
+    }
+
+    /// As [`Session::open`], extracting embedded objects into `object_cache` where needed.
+    pub fn open_with_object_cache(
+        path: impl AsRef<Path>,
+        object_cache: impl AsRef<Path>,
+    ) -> Result<Session> {
+        let dir = object_cache.as_ref().to_path_buf();
+        read_session(path.as_ref(), &|| Ok(dir.clone())).map(|(session, _)| session)
+    }
+}
+
+/// Writes `session` to `path`, recording `session_path` (the user's own file) if given.
+pub(crate) fn write_session(
+    session: &Session,
+    path: &Path,
+    session_path: Option<&Path>,
+) -> Result<()> {
+    session
+        .check()
+        .map_err(|problem| Error::invalid(path, format!("not saved: {problem}")))?;
+    let manifest = Manifest {
+        format_version: FORMAT_VERSION,
+        active_view: session.active_view,
+        session_path: session_path.map(|p| p.to_string_lossy().into_owned()),
+        brush: session.brush.clone(),
+        basis: BasisManifest {
+            components: session.basis.components,
+            materials: session.basis.materials,
+            regularization: session.basis.regularization.to_string(),
+            policy: session.basis.policy.to_string(),
+        },
+        views: session
+            .views
+            .iter()
+            .map(|v| ViewManifest {
+                name: v.name.clone(),
+                muted: v.muted,
+                base_dir: v.scene.base_dir.to_string_lossy().into_owned(),
+            })
+            .collect(),
+    };
+    let manifest =
+        toml::to_string(&manifest).map_err(|e| Error::invalid(path, format!("not saved: {e}")))?;
+
+    // Everything that can fail for reasons other than the disk happens before the write.
+    let mut entries: Vec<(String, Vec<u8>)> = vec![(MANIFEST.into(), manifest.into_bytes())];
+    for (i, view) in session.views.iter().enumerate() {
+        entries.push((entry(i, "scene.toml"), view.scene.to_toml().into_bytes()));
+        if let ObjectSource::Obj(object) = view.scene.object_source() {
+            let bytes = std::fs::read(&object).map_err(|e| {
+                Error::invalid(
+                    path,
+                    format!(
+                        "not saved: view {} ({:?}): its object {} can't be read to embed it: {e}",
+                        i + 1,
+                        view.name,
+                        object.display()
+                    ),
+                )
+            })?;
+            entries.push((entry(i, "object.obj"), bytes));
+        }
+    }
+    let images: Vec<(String, Vec<u8>)> = session
+        .views
+        .iter()
+        .enumerate()
+        .flat_map(|(i, view)| {
+            [
+                (entry(i, "colour.exr"), encode_colour(&view.paint.colour)),
+                (
+                    entry(i, "coverage.exr"),
+                    encode_coverage(&view.paint.coverage, view.scene.resolution as usize),
+                ),
+            ]
+        })
+        .map(|(name, bytes)| {
+            bytes
+                .map(|b| (name.clone(), b))
+                .map_err(|e| Error::invalid(path, format!("not saved: {name}: {e}")))
+        })
+        .collect::<Result<_>>()?;
+    entries.extend(images);
+
+    write_atomically(path, |w| {
+        let options = SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated)
+            .compression_level(Some(DEFLATE_LEVEL))
+            .large_file(
+                entries
+                    .iter()
+                    .any(|(_, b)| b.len() as u64 >= u32::MAX as u64),
+            );
+        let mut zip = ZipWriter::new(w);
+        for (name, bytes) in &entries {
+            zip.start_file(name.as_str(), options)
+                .map_err(std::io::Error::other)?;
+            zip.write_all(bytes)?;
+        }
+        zip.finish().map_err(std::io::Error::other)?;
+        Ok(())
+    })
+}
+
+/// Reads and validates `path`; `object_cache` gives the folder for extracted objects and
+/// is asked only when one is needed.
+pub(crate) fn read_session(
+    path: &Path,
+    object_cache: &dyn Fn() -> Result<PathBuf>,
+) -> Result<(Session, Option<PathBuf>)> {
+    let invalid = |problem: String| Error::invalid(path, problem);
+    let mut archive = open_archive(path)?;
+    let manifest = read_manifest(path, &mut archive)?;
+    let regularization = manifest
+        .basis
+        .regularization
+        .parse()
+        .map_err(|e| invalid(format!("{MANIFEST}: basis.regularization: {e}")))?;
+    let policy = manifest
+        .basis
+        .policy
+        .parse()
+        .map_err(|e| invalid(format!("{MANIFEST}: basis.policy: {e}")))?;
+
+    let mut views = Vec::with_capacity(manifest.views.len());
+    let mut embedded_objects = Vec::with_capacity(manifest.views.len());
+    for (i, view) in manifest.views.iter().enumerate() {
+        let scene_entry = entry(i, "scene.toml");
+        let text = read_text(path, &mut archive, &scene_entry)?;
+        let mut scene = Scene::parse(&text, Path::new(&scene_entry)).map_err(|e| match e {
+            Error::Invalid { problem, .. } => invalid(format!("{scene_entry}: {problem}")),
+            other => other,
+        })?;
+        scene.base_dir = PathBuf::from(&view.base_dir);
+        let side = scene.resolution as usize;
+
+        let colour_entry = entry(i, "colour.exr");
+        let bytes = read_entry(path, &mut archive, &colour_entry, exr_limit(side, 3))?;
+        let colour = decode_colour(&bytes, side)
+            .and_then(|colour| check_colour(&colour, side).map(|()| colour))
+            .map_err(|problem| invalid(format!("{colour_entry}: {problem}")))?;
+
+        let coverage_entry = entry(i, "coverage.exr");
+        let bytes = read_entry(path, &mut archive, &coverage_entry, exr_limit(side, 1))?;
+        let coverage = decode_coverage(&bytes, side)
+            .and_then(|coverage| check_coverage(&coverage, side).map(|()| coverage))
+            .map_err(|problem| invalid(format!("{coverage_entry}: {problem}")))?;
+
+        embedded_objects.push(match scene.object_source() {
+            ObjectSource::Obj(_) => Some(read_entry(
+                path,
+                &mut archive,
+                &entry(i, "object.obj"),
+                OBJECT_LIMIT,
+            )?),
+            ObjectSource::Builtin(_) => None,
+        });
+        views.push(SessionView {
+            name: view.name.clone(),
+            scene,
+            muted: view.muted,
+            paint: PaintLayers { colour, coverage },
+        });
+    }
+    let session = Session {
+        views,
+        active_view: manifest.active_view,
+        brush: manifest.brush,
+        basis: BasisSettings {
+            components: manifest.basis.components,
+            materials: manifest.basis.materials,
+            regularization,
+            policy,
+        },
+    };
+    session
+        .check()
+        .map_err(|problem| invalid(format!("{MANIFEST}: {problem}")))?;
+
+    // Only a valid file gets its objects extracted.
+    let mut session = session;
+    for (view, embedded) in session.views.iter_mut().zip(embedded_objects) {
+        if let (Some(bytes), ObjectSource::Obj(original)) = (embedded, view.scene.object_source())
+            && std::fs::read(&original).ok().as_deref() != Some(&bytes[..])
+        {
+            let extracted = extract_object(&object_cache()?, &original, &bytes)?;
+            view.scene.object = extracted.to_string_lossy().into_owned();
+        }
+    }
+    Ok((session, manifest.session_path.map(PathBuf::from)))
+}
+
+/// The view count and recorded session path of a session file, reading only its manifest.
+pub(crate) fn read_summary(path: &Path) -> Result<Summary> {
+    let mut archive = open_archive(path)?;
+    let manifest = read_manifest(path, &mut archive)?;
+    Ok(Summary {
+        views: manifest.views.len(),
+        session_path: manifest.session_path.map(PathBuf::from),
+    })
+}
+
+type Archive = ZipArchive<BufReader<File>>;
+
+fn open_archive(path: &Path) -> Result<Archive> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    ZipArchive::new(BufReader::new(file)).map_err(|e| match e {
+        zip::result::ZipError::Io(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
+            Error::io(path, io)
+        }
+        other => Error::invalid(
+            path,
+            format!("not a Burnish session file (not a readable zip archive: {other})"),
+        ),
+    })
+}
+
+fn read_manifest(path: &Path, archive: &mut Archive) -> Result<Manifest> {
+    let text = read_text(path, archive, MANIFEST)?;
+    let invalid = |problem: String| Error::invalid(path, format!("{MANIFEST}: {problem}"));
+    // The version first: a newer file may have keys this build does not know.
+    let table: toml::Table = toml::from_str(&text).map_err(|e| invalid(e.to_string()))?;
+    match table.get("format_version").and_then(|v| v.as_integer()) {
+        Some(v) if v == FORMAT_VERSION as i64 => {}
+        Some(v) if v > FORMAT_VERSION as i64 => {
+            return Err(invalid(format!(
+                "format_version = {v}: made by a newer Burnish (this one reads version \
+                 {FORMAT_VERSION})"
+            )));
+        }
+        Some(v) => {
+            return Err(invalid(format!(
+                "format_version = {v} is not a version this Burnish reads ({FORMAT_VERSION})"
+            )));
+        }
+        None => return Err(invalid("no integer format_version".into())),
+    }
+    toml::from_str(&text).map_err(|e| invalid(e.to_string()))
+}
+
+fn read_text(path: &Path, archive: &mut Archive, name: &str) -> Result<String> {
+    let bytes = read_entry(path, archive, name, TEXT_LIMIT)?;
+    String::from_utf8(bytes).map_err(|_| Error::invalid(path, format!("{name}: not UTF-8 text")))
+}
+
+/// An entry's bytes, its checksum verified; refuses entries inflating beyond `limit`.
+fn read_entry(path: &Path, archive: &mut Archive, name: &str, limit: u64) -> Result<Vec<u8>> {
+    let mut file = archive.by_name(name).map_err(|e| match e {
+        zip::result::ZipError::FileNotFound => {
+            Error::invalid(path, format!("the entry {name} is missing"))
+        }
+        other => Error::invalid(path, format!("{name}: unreadable entry ({other})")),
+    })?;
+    if file.size() > limit {
+        return Err(Error::invalid(
+            path,
+            format!(
+                "{name}: {} bytes is more than such an entry can hold",
+                file.size()
+            ),
+        ));
+    }
+    let mut bytes = Vec::with_capacity(file.size() as usize);
+    // The zip reader checks the CRC once the entry has been read to its end.
+    (&mut file)
+        .take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::invalid(path, format!("{name}: damaged entry ({e})")))?;
+    if bytes.len() as u64 != file.size() {
+        return Err(Error::invalid(
+            path,
+            format!(
+                "{name}: damaged entry ({} bytes where {} were recorded)",
+                bytes.len(),
+                file.size()
+            ),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// Generous bound on an uncompressed EXR of `side²` pixels and `channels` f32 channels: the
+/// pixels, one offset per scan line, and a header.
+fn exr_limit(side: usize, channels: usize) -> u64 {
+    (side * side * channels * 4 + side * 16 + (1 << 20)) as u64
+}
+
+/// Writes an EXR image into memory. A macro, not a function: the channel closures borrow the
+/// caller's pixels, and exr's writer traits can't name that lifetime in a signature.
+macro_rules! encode_exr {
+    ($image:expr) => {{
+        let mut bytes = Cursor::new(Vec::new());
+        $image
+            .write()
+            .to_buffered(&mut bytes)
+            .map_err(|e| e.to_string())?;
+        Ok(bytes.into_inner())
+    }};
+}
+
+fn encode_colour(colour: &RgbImage) -> std::result::Result<Vec<u8>, String> {
+    let width = colour.width;
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let [r, g, b] = colour.pixels[pos.y() * width + pos.x()];
+        (r, g, b)
+    });
+    encode_exr!(Image::from_encoded_channels(
+        (colour.width, colour.height),
+        Encoding::UNCOMPRESSED,
+        channels,
+    ))
+}
+
+fn encode_coverage(coverage: &[f32], side: usize) -> std::result::Result<Vec<u8>, String> {
+    let channels = SpecificChannels::build()
+        .with_channel("Y")
+        .with_pixel_fn(|pos: Vec2<usize>| (coverage[pos.y() * side + pos.x()],));
+    encode_exr!(Image::from_encoded_channels(
+        (side, side),
+        Encoding::UNCOMPRESSED,
+        channels,
+    ))
+}
+
+/// The named 32-bit float channels of an EXR's first layer, which must be `side × side`.
+fn decode_channels(
+    bytes: &[u8],
+    side: usize,
+    names: &[&str],
+) -> std::result::Result<Vec<Vec<f32>>, String> {
+    let not_exr = |e: exr::error::Error| format!("not a readable OpenEXR image ({e})");
+    // The header first, so that a wrong size is reported before any pixels are decoded.
+    let meta =
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(not_exr)?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or("an OpenEXR file without layers")?;
+    let size = header.layer_size;
+    if (size.width(), size.height()) != (side, side) {
+        return Err(format!(
+            "the image is {} × {} pixels but the scene's resolution is {side}",
+            size.width(),
+            size.height()
+        ));
+    }
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(not_exr)?;
+    let list = &image.layer_data.channel_data.list;
+    names
+        .iter()
+        .map(|&name| {
+            let channel = list
+                .iter()
+                .find(|c| c.name == *name)
+                .ok_or_else(|| format!("no channel {name}"))?;
+            match &channel.sample_data {
+                FlatSamples::F32(samples) if samples.len() == side * side => Ok(samples.clone()),
+                FlatSamples::F32(samples) => Err(format!(
+                    "channel {name} has {} samples, not {side} × {side}",
+                    samples.len()
+                )),
+                _ => Err(format!(
+                    "channel {name} is not 32-bit float (a painting must be stored losslessly)"
+                )),
+            }
+        })
+        .collect()
+}
+
+fn decode_colour(bytes: &[u8], side: usize) -> std::result::Result<RgbImage, String> {
+    let channels = decode_channels(bytes, side, &["R", "G", "B"])?;
+    let pixels = (0..side * side)
+        .map(|i| [channels[0][i], channels[1][i], channels[2][i]])
+        .collect();
+    Ok(RgbImage {
+        width: side,
+        height: side,
+        pixels,
+    })
+}
+
+fn decode_coverage(bytes: &[u8], side: usize) -> std::result::Result<Vec<f32>, String> {
+    Ok(decode_channels(bytes, side, &["Y"])?.remove(0))
+}
+
+/// Writes `bytes` (an embedded copy of `original`) to `cache/<hash>/<original's file name>`,
+/// unless that file already holds them, and returns its absolute path.
+fn extract_object(cache: &Path, original: &Path, bytes: &[u8]) -> Result<PathBuf> {
+    let file_name = original
+        .file_name()
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("object.obj"));
+    let dir = cache.join(format!("{:016x}", fnv1a(bytes)));
+    let target = std::path::absolute(dir.join(file_name)).map_err(|e| Error::io(&dir, e))?;
+    if std::fs::read(&target).ok().as_deref() == Some(bytes) {
+        return Ok(target);
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    write_atomically(&target, |w| w.write_all(bytes))?;
+    Ok(target)
+}
+
+/// 64-bit FNV-1a: names the folder of an extracted object after its contents, so that one
+/// copy serves every session embedding the same file.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, &b| {
+        (hash ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}

@@ -1,0 +1,62 @@
+// Evaluates the reconstruction for every unordered direction pair, exactly as
+// solver::Reconstruction::eval_pair does: m = clamp(mean + Σ_k u_k x_k, lower − margin,
+// upper + margin), ρ = max((e^m (reference + ε) − ε) / c, 0). It runs once per change of
+// coefficients; the scene pass then reads the result like any table.
+
+const MAP_EPSILON: f32 = 0.001;
+const PHI_BINS: u32 = 36u;
+const THETA_BINS: u32 = 45u;
+
+struct Params {
+    // u32 words per pair in `rows`: ceil(K / 2).
+    row_words: u32,
+    pairs: u32,
+    // Invocations along x of the dispatch (workgroups · 256): the stride of id.y.
+    stride: u32,
+    unused: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+// Per component k (padded to an even count): the R, G, B coefficients divided by the scale the
+// components were stored with.
+@group(0) @binding(1) var<storage, read> coefficients: array<vec4<f32>>;
+// Per pair, ceil(K / 2) words of pack2x16float(u_2j · scale, u_2j+1 · scale).
+@group(0) @binding(2) var<storage, read> rows: array<u32>;
+// Per pair: (reference + ε, mean, lower − margin, upper + margin), as the engine computes them.
+@group(0) @binding(3) var<storage, read> pair_range: array<vec4<f32>>;
+// 1 / c for polar bins (t_lo, t_hi), 45 × 45, computed in double precision like the engine's.
+@group(0) @binding(4) var<storage, read> inv_cos_weight: array<f32>;
+// Output: ρ, 3 floats per pair.
+@group(0) @binding(5) var<storage, read_write> rho: array<f32>;
+
+@compute @workgroup_size(256)
+fn reconstruct(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pair = id.x + id.y * params.stride;
+    if pair >= params.pairs {
+        return;
+    }
+    // table::pair_directions: hi is the largest integer with hi (hi + 1) / 2 <= pair.
+    var hi = u32((sqrt(f32(8u * pair + 1u)) - 1.0) * 0.5);
+    while hi * (hi + 1u) / 2u > pair {
+        hi -= 1u;
+    }
+    while (hi + 1u) * (hi + 2u) / 2u <= pair {
+        hi += 1u;
+    }
+    let lo = pair - hi * (hi + 1u) / 2u;
+    let inv_c = inv_cos_weight[(lo / PHI_BINS) * THETA_BINS + hi / PHI_BINS];
+
+    var sum = vec3<f32>(0.0);
+    let base = pair * params.row_words;
+    for (var j = 0u; j < params.row_words; j++) {
+        let u = unpack2x16float(rows[base + j]);
+        sum += u.x * coefficients[2u * j].xyz;
+        sum += u.y * coefficients[2u * j + 1u].xyz;
+    }
+    let range = pair_range[pair];
+    let m = clamp(range.y + sum, vec3<f32>(range.z), vec3<f32>(range.w));
+    let value = max((exp(m) * range.x - MAP_EPSILON) * inv_c, vec3<f32>(0.0));
+    rho[3u * pair] = value.x;
+    rho[3u * pair + 1u] = value.y;
+    rho[3u * pair + 2u] = value.z;
+}

@@ -1,1 +1,505 @@
-//! The egui application: panels, menus and the canvas and preview widgets. It holds no numerics.
+//! The egui application: panels, menus and the canvas and preview widgets. It holds no
+//! numerics: painting is `paint`, solving is `worker`, drawing the BRDF is `preview`.
+//!
+//! Layout: menus on top, the status bar at the bottom, the views and their scene setup on
+//! the left, the live preview on the right and the canvas in the centre.
+
+mod actions;
+mod basis_job;
+mod canvas_panel;
+mod document;
+mod preview_panel;
+mod side_panel;
+mod status_bar;
+mod widgets;
+
+pub use actions::Action;
+pub use basis_job::{BasisJob, BasisStatus};
+pub use document::ViewDoc;
+
+use crate::basis::{Basis, BasisSpec};
+use crate::paint::{BrushPreset, BrushSettings, load_presets};
+use crate::scene::Scene;
+use crate::session::{Autosaver, BasisSettings, RecoveryInfo};
+use crate::worker::{Command, Snapshot, ViewId, Worker};
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// How the app starts.
+pub struct AppConfig {
+    /// A basis to use at once (tests); otherwise it is loaded or built in the background.
+    pub basis: Option<Arc<Basis>>,
+    pub basis_settings: BasisSettings,
+    /// Where brush presets are read from.
+    pub brushes_dir: PathBuf,
+    /// A session to open at start.
+    pub session: Option<PathBuf>,
+    /// Whether to autosave to the recovery file and offer recovery at start.
+    pub autosave: bool,
+    /// The first view's scene when no session is opened.
+    pub scene: Scene,
+}
+
+impl Default for AppConfig {
+    fn default() -> Self {
+        Self {
+            basis: None,
+            basis_settings: BasisSettings::default(),
+            brushes_dir: default_brushes_dir(),
+            session: None,
+            autosave: true,
+            scene: Scene::default(),
+        }
+    }
+}
+
+/// brushes/ beside the executable's crate when run from a checkout, else the working folder's.
+fn default_brushes_dir() -> PathBuf {
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("brushes");
+    if manifest.is_dir() {
+        manifest
+    } else {
+        PathBuf::from("brushes")
+    }
+}
+
+/// Which picture the right-hand panel shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PreviewTab {
+    #[default]
+    Object,
+    /// Polar plot of the lobe for one incident direction.
+    Lobe,
+    /// The table image (paper's Figure 4).
+    Table,
+}
+
+/// A message for the user: errors name the file and the problem.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Notice {
+    pub text: String,
+    pub is_error: bool,
+}
+
+/// The Burnish window.
+pub struct BurnishApp {
+    pub views: Vec<ViewDoc>,
+    pub active: usize,
+    next_view_id: ViewId,
+    pub brush: BrushSettings,
+    pub presets: Vec<BrushPreset>,
+    pub worker: Worker,
+    pub basis_job: BasisJob,
+    pub basis_settings: BasisSettings,
+    pub basis: Option<Arc<Basis>>,
+    /// The newest snapshot the UI has taken from the worker.
+    pub snapshot: Arc<Snapshot>,
+    /// Observed sparse bins and inconsistent ones, mirrored from the worker's updates.
+    pub observed: HashMap<u32, [f32; 3]>,
+    pub inconsistent: HashSet<u32>,
+    /// The preview's camera, lights and mode.
+    pub preview: crate::preview::PreviewFrame,
+    pub preview_tab: PreviewTab,
+    pub lobe_theta_deg: f32,
+    pub lobe_phi_deg: f32,
+    /// A scene edit waiting for the pointer to be released.
+    pending_scene: Option<Scene>,
+    /// The brush tip of the chosen preset, if it has one.
+    pub active_tip: Option<Arc<crate::paint::TipMask>>,
+    pub canvas_view: canvas_panel::CanvasView,
+    pub show_overlay: bool,
+    pub session_path: Option<PathBuf>,
+    /// Whether anything changed since the last save.
+    pub dirty: bool,
+    /// Whether anything changed since the autosaver last looked.
+    changed_since_autosave: bool,
+    /// The window asked to close while there were unsaved changes.
+    pub confirm_close: bool,
+    autosaver: Option<Autosaver>,
+    pub recovery_offer: Option<RecoveryInfo>,
+    pub notices: Vec<Notice>,
+    /// Stroke-to-preview latencies in ms, oldest first (bounded).
+    pub latencies_ms: Vec<f64>,
+    preview_state: preview_panel::PreviewState,
+    pending_actions: Vec<Action>,
+}
+
+/// The basis the settings ask for: the default database at its size, K components.
+pub fn basis_spec(settings: &BasisSettings) -> BasisSpec {
+    BasisSpec {
+        database: crate::materials::database::DatabaseSpec {
+            size: settings.materials,
+            ..Default::default()
+        },
+        ..BasisSpec::default_for(settings.components)
+    }
+}
+
+/// The preview's starting frame: the scene's camera and light, bins interpolated.
+fn preview_frame(scene: &Scene) -> crate::preview::PreviewFrame {
+    let mut frame = crate::preview::PreviewFrame::from_scene(scene);
+    frame.interpolate = true;
+    frame
+}
+
+/// Latencies kept for the status bar and the benchmark.
+const LATENCY_HISTORY: usize = 4096;
+
+impl BurnishApp {
+    /// The app, with the wgpu render state of `cc` (when the backend is wgpu) for the preview.
+    pub fn new(cc: &eframe::CreationContext<'_>, config: AppConfig) -> Self {
+        let mut app = Self::headless(config);
+        app.preview_state = preview_panel::PreviewState::new(cc.wgpu_render_state.as_ref());
+        if let Some(e) = app.preview_state.init_error.clone() {
+            app.notify_error(format!("preview: {e}"));
+        }
+        app
+    }
+
+    /// The app without a window (the state the UI drives); `new` adds the GPU preview.
+    pub fn headless(config: AppConfig) -> Self {
+        let settings = config.basis_settings.clone();
+        let worker = Worker::spawn(settings.policy, settings.regularization);
+        let spec = basis_spec(&settings);
+        let basis_job = match config.basis {
+            Some(basis) => BasisJob::ready(spec, basis),
+            None => BasisJob::start(spec, None),
+        };
+        let (presets, preset_errors) = load_presets(&config.brushes_dir);
+        let mut app = Self {
+            views: Vec::new(),
+            active: 0,
+            next_view_id: 0,
+            brush: presets
+                .first()
+                .map(|p| p.settings.clone())
+                .unwrap_or_default(),
+            presets,
+            worker,
+            basis_job,
+            basis_settings: settings,
+            basis: None,
+            snapshot: Arc::new(Snapshot::default()),
+            observed: HashMap::new(),
+            inconsistent: HashSet::new(),
+            preview: preview_frame(&config.scene),
+            preview_tab: PreviewTab::Object,
+            lobe_theta_deg: 45.0,
+            lobe_phi_deg: 0.0,
+            pending_scene: None,
+            active_tip: None,
+            canvas_view: canvas_panel::CanvasView::default(),
+            show_overlay: false,
+            session_path: None,
+            dirty: false,
+            changed_since_autosave: false,
+            confirm_close: false,
+            autosaver: if config.autosave {
+                Autosaver::at_default_location()
+            } else {
+                None
+            },
+            recovery_offer: if config.autosave {
+                crate::session::pending_recovery()
+            } else {
+                None
+            },
+            notices: Vec::new(),
+            latencies_ms: Vec::new(),
+            preview_state: preview_panel::PreviewState::default(),
+            pending_actions: Vec::new(),
+        };
+        for e in preset_errors {
+            app.notify_error(format!("brush preset skipped: {e}"));
+        }
+        let opened = match config.session {
+            Some(path) => app.open_session(&path).is_ok(),
+            None => false,
+        };
+        if !opened {
+            if let Err(e) = app.add_view(config.scene) {
+                app.notify_error(e.to_string());
+                let _ = app.add_view(Scene::default());
+            }
+            app.dirty = false;
+        }
+        app.poll_basis();
+        app
+    }
+
+    /// Marks the session changed (unsaved, and due for the next autosave).
+    pub fn touch(&mut self) {
+        self.dirty = true;
+        self.changed_since_autosave = true;
+    }
+
+    pub fn notify_error(&mut self, text: impl Into<String>) {
+        self.notices.push(Notice {
+            text: text.into(),
+            is_error: true,
+        });
+    }
+
+    pub fn notify(&mut self, text: impl Into<String>) {
+        self.notices.push(Notice {
+            text: text.into(),
+            is_error: false,
+        });
+    }
+
+    pub fn active_view(&self) -> Option<&ViewDoc> {
+        self.views.get(self.active)
+    }
+
+    pub fn active_view_mut(&mut self) -> Option<&mut ViewDoc> {
+        self.views.get_mut(self.active)
+    }
+
+    /// Adds a view of `scene` and makes it active.
+    pub fn add_view(&mut self, scene: Scene) -> crate::Result<()> {
+        let id = self.next_view_id;
+        let doc = ViewDoc::new(id, format!("View {}", id + 1), scene)?;
+        self.next_view_id += 1;
+        self.worker.send(Command::SetView {
+            view: id,
+            gbuffer: doc.gbuffer.clone(),
+        });
+        self.views.push(doc);
+        self.active = self.views.len() - 1;
+        self.canvas_view.invalidate();
+        self.touch();
+        Ok(())
+    }
+
+    /// Closes the view at `index`; its samples leave the table.
+    pub fn remove_view(&mut self, index: usize) {
+        if index >= self.views.len() || self.views.len() == 1 {
+            return;
+        }
+        let doc = self.views.remove(index);
+        self.worker.send(Command::RemoveView(doc.id));
+        self.active = self.active.min(self.views.len() - 1);
+        self.canvas_view.invalidate();
+        self.touch();
+    }
+
+    pub fn set_muted(&mut self, index: usize, muted: bool) {
+        if let Some(doc) = self.views.get_mut(index) {
+            doc.muted = muted;
+            self.worker.send(Command::MuteView {
+                view: doc.id,
+                muted,
+            });
+            self.touch();
+        }
+    }
+
+    /// Applies a changed scene to the view at `index`.
+    pub fn set_scene(&mut self, index: usize, scene: Scene) -> crate::Result<()> {
+        let Some(doc) = self.views.get_mut(index) else {
+            return Ok(());
+        };
+        doc.set_scene(scene)?;
+        self.worker.send(Command::SetView {
+            view: doc.id,
+            gbuffer: doc.gbuffer.clone(),
+        });
+        self.worker.send(Command::ReplacePaint {
+            view: doc.id,
+            painted: doc.painted_pixels(),
+        });
+        self.canvas_view.invalidate();
+        self.touch();
+        Ok(())
+    }
+
+    /// Sends a canvas operation's changes to the worker and marks the texture for upload.
+    pub(crate) fn publish_canvas_changes(
+        &mut self,
+        changes: Option<crate::paint::CanvasChanges>,
+        input_time: Instant,
+    ) {
+        let Some(changes) = changes.filter(|c| !c.is_empty()) else {
+            return;
+        };
+        let Some(doc) = self.views.get(self.active) else {
+            return;
+        };
+        self.canvas_view.mark_dirty(changes.dirty);
+        let edits = changes
+            .pixels
+            .iter()
+            .map(|c| crate::worker::PixelEdit {
+                pixel: c.pixel,
+                before: c.before,
+                after: c.after,
+            })
+            .collect();
+        self.worker.send(Command::Pixels {
+            view: doc.id,
+            edits,
+            input_time,
+        });
+        self.touch();
+    }
+
+    /// Takes what background threads finished: the basis, snapshots and bin updates.
+    pub fn poll_background(&mut self) {
+        self.poll_basis();
+        for update in self.worker.take_bin_updates() {
+            match update.value {
+                Some(v) => self.observed.insert(update.pair, v),
+                None => self.observed.remove(&update.pair),
+            };
+            if update.inconsistent {
+                self.inconsistent.insert(update.pair);
+            } else {
+                self.inconsistent.remove(&update.pair);
+            }
+            self.preview_state.queue_sparse(update.pair, update.value);
+        }
+        let snapshot = self.worker.snapshot();
+        if snapshot.version != self.snapshot.version {
+            self.snapshot = snapshot;
+        }
+    }
+
+    fn poll_basis(&mut self) {
+        if let Some(basis) = self.basis_job.take_result() {
+            self.basis = Some(basis.clone());
+            self.worker.send(Command::SetBasis(basis));
+        }
+    }
+
+    /// Records the latency of the newest snapshot the first time a frame draws it.
+    pub(crate) fn record_drawn(&mut self, version: u64, oldest_input: Option<Instant>) {
+        if let Some(t) = oldest_input {
+            if self.preview_state.last_drawn_version < version {
+                if self.latencies_ms.len() == LATENCY_HISTORY {
+                    self.latencies_ms.remove(0);
+                }
+                self.latencies_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+        self.preview_state.last_drawn_version = version;
+    }
+
+    /// Where the last frame drew the canvas (in points) and the canvas resolution.
+    pub fn canvas_layout(&self) -> Option<(egui::Rect, usize)> {
+        self.canvas_view.last_layout
+    }
+
+    /// Where the last frame drew the object preview, in points.
+    pub fn preview_rect(&self) -> Option<egui::Rect> {
+        self.preview_state.last_rect
+    }
+
+    /// The stroke-to-preview latency percentile `q` in [0, 1], in ms.
+    pub fn latency_percentile(&self, q: f64) -> Option<f64> {
+        if self.latencies_ms.is_empty() {
+            return None;
+        }
+        let mut sorted = self.latencies_ms.clone();
+        sorted.sort_by(f64::total_cmp);
+        let i = ((sorted.len() - 1) as f64 * q).round() as usize;
+        Some(sorted[i])
+    }
+
+    /// Queues an action for the next frame (menus, shortcuts, tests).
+    pub fn queue(&mut self, action: Action) {
+        self.pending_actions.push(action);
+    }
+
+    fn autosave(&mut self) {
+        let changed = std::mem::take(&mut self.changed_since_autosave);
+        if let Some(mut saver) = self.autosaver.take() {
+            saver.maybe_save(Instant::now(), changed, || self.to_session());
+            if let Some(e) = saver.take_error() {
+                self.notify_error(format!("autosave failed: {e}"));
+            }
+            self.autosaver = Some(saver);
+        }
+    }
+
+    /// After the user's own save: recovery would only repeat it.
+    pub(crate) fn saved_to(&mut self, path: Option<PathBuf>) {
+        if let Some(saver) = self.autosaver.as_mut() {
+            saver.set_session_path(path);
+            if !self.dirty {
+                let _ = saver.discard();
+            }
+        }
+    }
+
+    /// Ends cleanly: the recovery file goes.
+    pub(crate) fn discard_recovery(&mut self) {
+        if let Some(saver) = self.autosaver.as_mut() {
+            let _ = saver.discard();
+        }
+    }
+}
+
+impl eframe::App for BurnishApp {
+    fn logic(&mut self, ctx: &egui::Context, _frame: &mut eframe::Frame) {
+        self.poll_background();
+        for action in std::mem::take(&mut self.pending_actions) {
+            self.perform(action);
+        }
+        self.autosave();
+        let pointer_down = ctx.input(|i| i.pointer.any_down());
+        if !pointer_down && *self.basis_job.spec() != basis_spec(&self.basis_settings) {
+            self.restart_basis();
+        }
+        if matches!(self.basis_job.status(), BasisStatus::Working { .. })
+            || self.worker.queued() > 0
+            || self.snapshot.version != self.preview_state.last_drawn_version
+        {
+            ctx.request_repaint();
+        }
+        if ctx.input(|i| i.viewport().close_requested()) {
+            if self.dirty {
+                // Ask first; the recovery file stays until the user decides.
+                ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+                self.confirm_close = true;
+            } else {
+                self.discard_recovery();
+            }
+        }
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        actions::shortcuts(self, ui.ctx());
+        egui::Panel::top("menu").show(ui, |ui| actions::menu_bar(self, ui));
+        egui::Panel::bottom("status").show(ui, |ui| status_bar::show(self, ui));
+        egui::Panel::left("views")
+            .resizable(true)
+            .default_size(260.0)
+            .show(ui, |ui| side_panel::show(self, ui));
+        egui::Panel::right("preview")
+            .resizable(true)
+            .default_size(ui.available_width() * 0.4)
+            .show(ui, |ui| preview_panel::show(self, ui));
+        egui::CentralPanel::default().show(ui, |ui| canvas_panel::show(self, ui));
+        actions::dialogs(self, ui.ctx());
+    }
+}
+
+/// Opens the Burnish window (the default command).
+pub fn run(config: AppConfig) -> anyhow::Result<()> {
+    let options = eframe::NativeOptions {
+        renderer: eframe::Renderer::Wgpu,
+        viewport: egui::ViewportBuilder::default()
+            .with_title("Burnish")
+            .with_inner_size([1500.0, 900.0])
+            .with_min_inner_size([900.0, 600.0]),
+        ..Default::default()
+    };
+    eframe::run_native(
+        "Burnish",
+        options,
+        Box::new(move |cc| Ok(Box::new(BurnishApp::new(cc, config)))),
+    )
+    .map_err(|e| anyhow::anyhow!("could not open the window: {e}"))
+}

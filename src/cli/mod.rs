@@ -1,5 +1,6 @@
 //! The command line: each verb drives the engine the way a script or a test would.
 
+mod app_cmd;
 mod basis_cmd;
 pub mod eval_cmd;
 mod reconstruct_cmd;
@@ -32,6 +33,8 @@ pub enum Command {
     Eval(eval_cmd::EvalArgs),
     /// Build (or load from the cache) the PCA basis of the material database.
     Basis(basis_cmd::BasisArgs),
+    /// Open the painting app (what `burnish` with no verb does).
+    App(app_cmd::AppArgs),
 }
 
 /// Runs the command line; errors are printed with the file and the problem, exit code 1.
@@ -43,10 +46,8 @@ pub fn run() -> ExitCode {
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
         Some(Command::Basis(args)) => basis_cmd::run(&args),
-        None => {
-            println!("{}", usage());
-            Ok(())
-        }
+        Some(Command::App(args)) => app_cmd::run(&args),
+        None => app_cmd::run(&app_cmd::AppArgs::default()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -55,18 +56,6 @@ pub fn run() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn usage() -> String {
-    "Burnish: paint how a material looks; get back a full tabulated BRDF.\n\n\
-     The painting app is not part of this build yet. Use the verbs:\n  \
-     burnish guide --scene S.toml --out guide.png                  the guide to paint over\n  \
-     burnish reconstruct --view S.toml=painting.png --out T.exr    paintings to a BRDF table\n  \
-     burnish render --scene S.toml --brdf T.exr --out image.png    the object with a table\n  \
-     burnish eval --truth A.exr --estimate B.exr                   compare two tables\n  \
-     burnish basis [--components K] [--rebuild]                    build or load the basis\n\n\
-     Run `burnish --help` or `burnish <verb> --help` for details."
-        .to_string()
 }
 
 /// Creates the missing folders above an output file, as users expect of a command line.

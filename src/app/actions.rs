@@ -1,0 +1,547 @@
+//! What the menus and shortcuts do: sessions, import and export, undo, views.
+//! File dialogs only supply paths; every action takes its path, so tests drive them directly.
+
+use super::{BurnishApp, ViewDoc};
+use crate::paint::BrushKind;
+use crate::scene::{Scene, write_png};
+use crate::session::{Session, SessionView};
+use crate::solver::Reconstruction;
+use crate::table::merl::MerlBrdf;
+use crate::worker::Command;
+use egui::{Key, KeyboardShortcut, Modifiers};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Something the user asked for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    NewSession,
+    OpenSession(PathBuf),
+    SaveSession(PathBuf),
+    ImportPainting(PathBuf),
+    ExportGuide(PathBuf),
+    ExportTable(PathBuf),
+    ExportMerl(PathBuf),
+    AddView,
+    Undo,
+    Redo,
+    Recover,
+    DiscardRecovery,
+}
+
+const UNDO: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::Z);
+const REDO: KeyboardShortcut =
+    KeyboardShortcut::new(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
+const SAVE: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::S);
+const OPEN: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::O);
+const NEW_VIEW: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::T);
+const EXPORT: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::E);
+
+impl BurnishApp {
+    pub fn perform(&mut self, action: Action) {
+        let result = match action {
+            Action::NewSession => self.new_session(),
+            Action::OpenSession(path) => self.open_session(&path),
+            Action::SaveSession(path) => self.save_session(&path),
+            Action::ImportPainting(path) => self.import_painting(&path),
+            Action::ExportGuide(path) => self.export_guide(&path),
+            Action::ExportTable(path) => self.export_table(&path, false),
+            Action::ExportMerl(path) => self.export_table(&path, true),
+            Action::AddView => {
+                let scene = self
+                    .active_view()
+                    .map(|v| v.scene.clone())
+                    .unwrap_or_default();
+                self.add_view(scene)
+            }
+            Action::Undo => {
+                self.undo_redo(true);
+                Ok(())
+            }
+            Action::Redo => {
+                self.undo_redo(false);
+                Ok(())
+            }
+            Action::Recover => self.recover(),
+            Action::DiscardRecovery => {
+                if let Some(info) = self.recovery_offer.take() {
+                    let _ = std::fs::remove_file(&info.path);
+                }
+                Ok(())
+            }
+        };
+        if let Err(e) = result {
+            self.notify_error(e.to_string());
+        }
+    }
+
+    fn undo_redo(&mut self, undo: bool) {
+        let Some(doc) = self.active_view_mut() else {
+            return;
+        };
+        let changes = if undo {
+            doc.canvas.undo()
+        } else {
+            doc.canvas.redo()
+        };
+        self.publish_canvas_changes(changes, Instant::now());
+    }
+
+    /// The session as it stands: every view, the brush and the basis settings.
+    pub fn to_session(&self) -> Session {
+        Session {
+            views: self
+                .views
+                .iter()
+                .map(|v| SessionView {
+                    name: v.name.clone(),
+                    scene: v.scene.clone(),
+                    muted: v.muted,
+                    paint: v.canvas.layers().clone(),
+                })
+                .collect(),
+            active_view: self.active,
+            brush: self.brush.clone(),
+            basis: self.basis_settings.clone(),
+        }
+    }
+
+    /// Replaces every view with those of `session`. Nothing changes when it fails.
+    pub fn load_session(&mut self, session: Session) -> crate::Result<()> {
+        let first_id = self.next_view_id;
+        let mut docs = Vec::with_capacity(session.views.len());
+        for (i, view) in session.views.into_iter().enumerate() {
+            docs.push(ViewDoc::with_paint(
+                first_id + i as u32,
+                view.name,
+                view.scene,
+                view.paint,
+                view.muted,
+            )?);
+        }
+        for old in self.views.drain(..) {
+            self.worker.send(Command::RemoveView(old.id));
+        }
+        self.next_view_id = first_id + docs.len() as u32;
+        for doc in &docs {
+            self.worker.send(Command::SetView {
+                view: doc.id,
+                gbuffer: doc.gbuffer.clone(),
+            });
+            self.worker.send(Command::MuteView {
+                view: doc.id,
+                muted: doc.muted,
+            });
+            self.worker.send(Command::ReplacePaint {
+                view: doc.id,
+                painted: doc.painted_pixels(),
+            });
+        }
+        self.views = docs;
+        self.active = session.active_view.min(self.views.len().saturating_sub(1));
+        self.brush = session.brush;
+        if session.basis != self.basis_settings {
+            self.worker.send(Command::SetPolicy(session.basis.policy));
+            self.worker
+                .send(Command::SetRegularization(session.basis.regularization));
+            self.basis_settings = session.basis;
+        }
+        self.canvas_view.invalidate();
+        Ok(())
+    }
+
+    fn new_session(&mut self) -> crate::Result<()> {
+        let view = ViewDoc::new(self.next_view_id, "View 1".into(), Scene::default())?;
+        let session = Session {
+            views: vec![SessionView {
+                name: view.name.clone(),
+                scene: view.scene.clone(),
+                muted: false,
+                paint: view.canvas.layers().clone(),
+            }],
+            active_view: 0,
+            brush: self.brush.clone(),
+            basis: self.basis_settings.clone(),
+        };
+        self.load_session(session)?;
+        self.session_path = None;
+        self.dirty = false;
+        Ok(())
+    }
+
+    pub fn open_session(&mut self, path: &Path) -> crate::Result<()> {
+        let session = Session::open(path)?;
+        self.load_session(session)?;
+        self.session_path = Some(path.to_path_buf());
+        self.dirty = false;
+        self.saved_to(self.session_path.clone());
+        self.notify(format!("opened {}", path.display()));
+        Ok(())
+    }
+
+    pub fn save_session(&mut self, path: &Path) -> crate::Result<()> {
+        self.to_session().save(path)?;
+        self.session_path = Some(path.to_path_buf());
+        self.dirty = false;
+        self.saved_to(self.session_path.clone());
+        self.notify(format!("saved {}", path.display()));
+        Ok(())
+    }
+
+    fn recover(&mut self) -> crate::Result<()> {
+        let Some(info) = self.recovery_offer.take() else {
+            return Ok(());
+        };
+        let session = info.open()?;
+        self.load_session(session)?;
+        self.session_path = info.session_path.clone();
+        self.touch();
+        self.notify(format!("recovered from {}", info.path.display()));
+        Ok(())
+    }
+
+    /// Replaces the active view's painting with an image painted elsewhere (PNG or EXR of
+    /// the guide's size). Every object pixel of the image becomes paint.
+    pub fn import_painting(&mut self, path: &Path) -> crate::Result<()> {
+        let Some(doc) = self.views.get_mut(self.active) else {
+            return Ok(());
+        };
+        let resolution = doc.gbuffer.resolution();
+        let image = crate::scene::read_painting(path, resolution)?;
+        if image
+            .pixels
+            .iter()
+            .any(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0))
+        {
+            return Err(crate::Error::invalid(
+                path,
+                "the painting has NaN, infinite or negative pixels",
+            ));
+        }
+        doc.import_painting(&image)?;
+        self.worker.send(Command::ReplacePaint {
+            view: doc.id,
+            painted: doc.painted_pixels(),
+        });
+        self.canvas_view.invalidate();
+        self.touch();
+        self.notify(format!("imported {}", path.display()));
+        Ok(())
+    }
+
+    pub fn export_guide(&mut self, path: &Path) -> crate::Result<()> {
+        let Some(doc) = self.active_view() else {
+            return Ok(());
+        };
+        write_png(path, doc.canvas.guide())?;
+        self.notify(format!("guide written to {}", path.display()));
+        Ok(())
+    }
+
+    fn export_table(&mut self, path: &Path, merl: bool) -> crate::Result<()> {
+        let snapshot = self.snapshot.clone();
+        let Some(basis) = snapshot.basis.clone() else {
+            return Err(crate::Error::invalid(
+                path,
+                "the basis is not ready yet; export when the status bar says it is",
+            ));
+        };
+        let table = Reconstruction::new(basis, &snapshot.coefficients).materialize();
+        if merl {
+            MerlBrdf::from_table(&table).write(path)?;
+        } else {
+            crate::table::exr_file::write_table_exr(path, &table)?;
+        }
+        self.notify(format!("BRDF written to {}", path.display()));
+        Ok(())
+    }
+}
+
+/// Keyboard shortcuts that work wherever the focus is.
+pub(super) fn shortcuts(app: &mut BurnishApp, ctx: &egui::Context) {
+    // Redo first: Ctrl+Z also matches Ctrl+Shift+Z logically and would consume it.
+    let (redo, undo, save, open, new_view, export, smaller, larger) = ctx.input_mut(|i| {
+        (
+            i.consume_shortcut(&REDO),
+            i.consume_shortcut(&UNDO),
+            i.consume_shortcut(&SAVE),
+            i.consume_shortcut(&OPEN),
+            i.consume_shortcut(&NEW_VIEW),
+            i.consume_shortcut(&EXPORT),
+            i.key_pressed(Key::OpenBracket),
+            i.key_pressed(Key::CloseBracket),
+        )
+    });
+    if redo {
+        app.perform(Action::Redo);
+    } else if undo {
+        app.perform(Action::Undo);
+    }
+    if save {
+        match app.session_path.clone() {
+            Some(path) => app.perform(Action::SaveSession(path)),
+            None => pick_save(app, "Save session", "burnish", Action::SaveSession),
+        }
+    }
+    if open {
+        pick_open(app, "Open session", &["burnish"], Action::OpenSession);
+    }
+    if new_view {
+        app.perform(Action::AddView);
+    }
+    if export {
+        pick_save(app, "Export BRDF table", "exr", Action::ExportTable);
+    }
+    if smaller {
+        app.brush.size = (app.brush.size / 1.2).max(1.0);
+    }
+    if larger {
+        app.brush.size = (app.brush.size * 1.2).min(1000.0);
+    }
+}
+
+/// Native open dialog; the chosen path becomes an action.
+fn pick_open(app: &mut BurnishApp, title: &str, ext: &[&str], action: fn(PathBuf) -> Action) {
+    if let Some(path) = rfd::FileDialog::new()
+        .set_title(title)
+        .add_filter(ext.join(", "), ext)
+        .pick_file()
+    {
+        app.queue(action(path));
+    }
+}
+
+fn pick_save(app: &mut BurnishApp, title: &str, ext: &str, action: fn(PathBuf) -> Action) {
+    if let Some(mut path) = rfd::FileDialog::new()
+        .set_title(title)
+        .add_filter(ext, &[ext])
+        .save_file()
+    {
+        if path.extension().is_none() {
+            path.set_extension(ext);
+        }
+        app.queue(action(path));
+    }
+}
+
+pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    egui::MenuBar::new().ui(ui, |ui| {
+        ui.menu_button("File", |ui| {
+            if ui.button("New session").clicked() {
+                app.queue(Action::NewSession);
+            }
+            if ui
+                .add(
+                    egui::Button::new("Open session…")
+                        .shortcut_text(ui.ctx().format_shortcut(&OPEN)),
+                )
+                .clicked()
+            {
+                pick_open(app, "Open session", &["burnish"], Action::OpenSession);
+            }
+            if ui
+                .add(
+                    egui::Button::new("Save session")
+                        .shortcut_text(ui.ctx().format_shortcut(&SAVE)),
+                )
+                .clicked()
+            {
+                match app.session_path.clone() {
+                    Some(path) => app.queue(Action::SaveSession(path)),
+                    None => pick_save(app, "Save session", "burnish", Action::SaveSession),
+                }
+            }
+            if ui.button("Save session as…").clicked() {
+                pick_save(app, "Save session", "burnish", Action::SaveSession);
+            }
+            ui.separator();
+            if ui.button("Export guide PNG…").clicked() {
+                pick_save(app, "Export guide", "png", Action::ExportGuide);
+            }
+            if ui.button("Import painting (PNG or EXR)…").clicked() {
+                pick_open(
+                    app,
+                    "Import painting",
+                    &["png", "exr"],
+                    Action::ImportPainting,
+                );
+            }
+            ui.separator();
+            if ui
+                .add(
+                    egui::Button::new("Export BRDF as EXR table…")
+                        .shortcut_text(ui.ctx().format_shortcut(&EXPORT)),
+                )
+                .clicked()
+            {
+                pick_save(app, "Export BRDF table", "exr", Action::ExportTable);
+            }
+            if ui.button("Export BRDF as MERL binary…").clicked() {
+                pick_save(app, "Export MERL BRDF", "binary", Action::ExportMerl);
+            }
+        });
+        ui.menu_button("Edit", |ui| {
+            let doc = app.active_view();
+            let (can_undo, can_redo) = doc.map_or((false, false), |d| {
+                (d.canvas.can_undo(), d.canvas.can_redo())
+            });
+            if ui
+                .add_enabled(
+                    can_undo,
+                    egui::Button::new("Undo stroke").shortcut_text(ui.ctx().format_shortcut(&UNDO)),
+                )
+                .clicked()
+            {
+                app.queue(Action::Undo);
+            }
+            if ui
+                .add_enabled(
+                    can_redo,
+                    egui::Button::new("Redo stroke").shortcut_text(ui.ctx().format_shortcut(&REDO)),
+                )
+                .clicked()
+            {
+                app.queue(Action::Redo);
+            }
+            ui.separator();
+            if ui.button("Fill object with brush colour").clicked() {
+                app.fill_active();
+            }
+        });
+        ui.menu_button("View", |ui| {
+            if ui
+                .add(
+                    egui::Button::new("Add view")
+                        .shortcut_text(ui.ctx().format_shortcut(&NEW_VIEW)),
+                )
+                .clicked()
+            {
+                app.queue(Action::AddView);
+            }
+            ui.checkbox(
+                &mut app.show_overlay,
+                "Show disagreement and coverage overlay",
+            );
+            if ui.button("Zoom to fit").clicked() {
+                app.canvas_view.reset_zoom();
+            }
+        });
+    });
+}
+
+impl BurnishApp {
+    /// Fills the active view's object with the brush colour (one undo step).
+    pub fn fill_active(&mut self) {
+        let mut settings = self.brush.clone();
+        settings.kind = BrushKind::Fill;
+        if let Some(doc) = self.active_view_mut() {
+            doc.canvas.fill(&settings);
+            let changes = doc.canvas.take_changes();
+            self.publish_canvas_changes(changes, Instant::now());
+        }
+    }
+}
+
+/// Notices and the recovery question.
+pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
+    if let Some(info) = app.recovery_offer.clone() {
+        egui::Window::new("Recover unsaved work?")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+            .show(ctx, |ui| {
+                ui.label(format!(
+                    "Burnish did not close cleanly. A recovery file with {} view(s) was saved {}.",
+                    info.views,
+                    age_text(info.modified)
+                ));
+                if let Some(path) = &info.session_path {
+                    ui.label(format!("It holds unsaved changes to {}.", path.display()));
+                }
+                ui.horizontal(|ui| {
+                    if ui.button("Recover").clicked() {
+                        app.queue(Action::Recover);
+                    }
+                    if ui.button("Discard").clicked() {
+                        app.queue(Action::DiscardRecovery);
+                    }
+                });
+            });
+    }
+    if app.confirm_close {
+        egui::Window::new("Save changes before closing?")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+            .show(ctx, |ui| {
+                ui.horizontal(|ui| {
+                    if ui.button("Save").clicked() {
+                        match app.session_path.clone() {
+                            Some(path) => app.perform(Action::SaveSession(path)),
+                            None => {
+                                if let Some(path) = rfd::FileDialog::new()
+                                    .add_filter("burnish", &["burnish"])
+                                    .save_file()
+                                {
+                                    app.perform(Action::SaveSession(path));
+                                }
+                            }
+                        }
+                        app.confirm_close = false;
+                        if !app.dirty {
+                            app.discard_recovery();
+                            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                        }
+                    }
+                    if ui.button("Don't save").clicked() {
+                        app.dirty = false;
+                        app.confirm_close = false;
+                        app.discard_recovery();
+                        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                    }
+                    if ui.button("Cancel").clicked() {
+                        app.confirm_close = false;
+                    }
+                });
+            });
+    }
+    if !app.notices.is_empty() {
+        let mut dismissed = Vec::new();
+        egui::Area::new(egui::Id::unique("burnish-notices"))
+            .anchor(egui::Align2::RIGHT_BOTTOM, [-12.0, -36.0])
+            .show(ctx, |ui| {
+                for (i, notice) in app.notices.iter().enumerate().rev().take(4) {
+                    egui::Frame::popup(ui.style()).show(ui, |ui| {
+                        ui.horizontal(|ui| {
+                            let text = egui::RichText::new(&notice.text);
+                            ui.label(if notice.is_error {
+                                text.color(ui.visuals().error_fg_color)
+                            } else {
+                                text
+                            });
+                            if ui.small_button("×").clicked() {
+                                dismissed.push(i);
+                            }
+                        });
+                    });
+                }
+            });
+        dismissed.sort_unstable();
+        for i in dismissed.into_iter().rev() {
+            app.notices.remove(i);
+        }
+    }
+}
+
+/// "3 minutes ago" and the like.
+fn age_text(modified: std::time::SystemTime) -> String {
+    let seconds = std::time::SystemTime::now()
+        .duration_since(modified)
+        .map_or(0, |d| d.as_secs());
+    match seconds {
+        0..60 => "less than a minute ago".into(),
+        60..3600 => format!("{} minutes ago", seconds / 60),
+        3600..86400 => format!("{} hours ago", seconds / 3600),
+        _ => format!("{} days ago", seconds / 86400),
+    }
+}

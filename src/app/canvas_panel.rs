@@ -1,0 +1,389 @@
+//! The centre: the brush bar and the canvas (the guide with its paint layer), with zoom,
+//! pan and the disagreement overlay. Only dirty rectangles of the texture are uploaded.
+
+use super::BurnishApp;
+use crate::paint::{BrushKind, PixelRect};
+use crate::scene::srgb_encode;
+use crate::table::pair_index;
+use egui::{Color32, ColorImage, Pos2, Rect, Sense, TextureHandle, TextureOptions, Vec2};
+use std::time::{Duration, Instant};
+
+/// How the canvas is shown: zoom, pan, the uploaded texture and what of it is stale.
+#[derive(Default)]
+pub struct CanvasView {
+    /// Screen points per canvas pixel; `None` fits the panel.
+    zoom: Option<f32>,
+    /// Offset of the canvas centre from the panel centre, in screen points.
+    pan: Vec2,
+    texture: Option<(u32, TextureHandle)>,
+    /// Canvas pixels changed since the last upload.
+    dirty: Option<PixelRect>,
+    /// Rebuild the whole texture (view switched, scene changed).
+    stale: bool,
+    stroke: Option<StrokeInput>,
+    overlay: Option<(TextureHandle, Instant)>,
+    /// Pen pressure of the last touch event, when the platform reports one.
+    pressure: Option<f32>,
+    /// What the last frame showed: canvas rectangle on screen and canvas resolution.
+    pub(crate) last_layout: Option<(Rect, usize)>,
+}
+
+struct StrokeInput {
+    last_time: Instant,
+}
+
+impl CanvasView {
+    pub fn invalidate(&mut self) {
+        self.stale = true;
+        self.overlay = None;
+    }
+
+    pub fn mark_dirty(&mut self, rect: PixelRect) {
+        self.dirty = Some(match self.dirty {
+            Some(d) => d.union(&rect),
+            None => rect,
+        });
+    }
+
+    pub fn reset_zoom(&mut self) {
+        self.zoom = None;
+        self.pan = Vec2::ZERO;
+    }
+
+    /// Screen position → canvas pixel coordinates (continuous).
+    fn to_canvas(rect: Rect, resolution: usize, pos: Pos2) -> (f32, f32) {
+        let scale = resolution as f32 / rect.width();
+        ((pos.x - rect.min.x) * scale, (pos.y - rect.min.y) * scale)
+    }
+}
+
+/// The display value of a linear HDR colour: clipped, sRGB-encoded.
+fn display_colour(c: [f32; 3]) -> Color32 {
+    let encode = |v: f32| (srgb_encode(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
+    Color32::from_rgb(encode(c[0]), encode(c[1]), encode(c[2]))
+}
+
+fn region_image(pixels: &[[f32; 3]], width: usize, rect: PixelRect) -> ColorImage {
+    let (w, h) = (rect.width() as usize, rect.height() as usize);
+    let (x0, x1) = (rect.x0 as usize, rect.x1 as usize);
+    let mut out = Vec::with_capacity(w * h);
+    for y in rect.y0 as usize..rect.y1 as usize {
+        let row = &pixels[y * width + x0..y * width + x1];
+        out.extend(row.iter().map(|&c| display_colour(c)));
+    }
+    ColorImage::new([w, h], out)
+}
+
+pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    brush_bar(app, ui);
+    ui.separator();
+    canvas(app, ui);
+}
+
+const TOOLS: [(BrushKind, &str, &str); 9] = [
+    (BrushKind::Round, "Brush", "Round brush (B)"),
+    (
+        BrushKind::Airbrush,
+        "Airbrush",
+        "Soft airbrush, builds up while held (A)",
+    ),
+    (BrushKind::Eraser, "Eraser", "Erase back to the guide (E)"),
+    (BrushKind::Smudge, "Smudge", "Drag colour along (S)"),
+    (BrushKind::Blur, "Blur", "Blur the paint (R)"),
+    (BrushKind::Lighten, "Dodge", "Lighten (O)"),
+    (BrushKind::Darken, "Burn", "Darken (N)"),
+    (BrushKind::Fill, "Fill", "Fill the whole object (F)"),
+    (
+        BrushKind::Eyedropper,
+        "Pick",
+        "Eyedropper: click the canvas or the preview (I)",
+    ),
+];
+
+fn brush_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    ui.horizontal_wrapped(|ui| {
+        for (kind, label, hint) in TOOLS {
+            ui.selectable_value(&mut app.brush.kind, kind, label)
+                .on_hover_text(hint);
+        }
+        ui.separator();
+        if !app.presets.is_empty() {
+            egui::ComboBox::from_id_salt("preset")
+                .selected_text("Presets")
+                .show_ui(ui, |ui| {
+                    for preset in &app.presets {
+                        if ui.selectable_label(false, &preset.name).clicked() {
+                            let colour = app.brush.colour;
+                            app.brush = preset.settings.clone();
+                            // A preset sets the tool, not the colour the artist mixed.
+                            app.brush.colour = colour;
+                            app.active_tip = preset.tip.clone();
+                        }
+                    }
+                });
+        }
+    });
+    ui.horizontal_wrapped(|ui| {
+        let b = &mut app.brush;
+        ui.add(
+            egui::Slider::new(&mut b.size, 1.0..=400.0)
+                .logarithmic(true)
+                .text("size"),
+        )
+        .on_hover_text("[ and ] change the size");
+        ui.add(egui::Slider::new(&mut b.hardness, 0.0..=1.0).text("hardness"));
+        ui.add(egui::Slider::new(&mut b.opacity, 0.0..=1.0).text("opacity"));
+        ui.add(egui::Slider::new(&mut b.flow, 0.01..=1.0).text("flow"));
+        ui.add(egui::Slider::new(&mut b.spacing, 0.02..=1.0).text("spacing"));
+    });
+    ui.horizontal(|ui| {
+        colour_picker(app, ui);
+        ui.checkbox(&mut app.brush.pressure_size, "pressure: size");
+        ui.checkbox(&mut app.brush.pressure_flow, "pressure: flow");
+    });
+}
+
+/// HSV with a separate intensity that may exceed 1 (HDR paint).
+fn colour_picker(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    let c = app.brush.colour;
+    let intensity = c.iter().cloned().fold(0.0f32, f32::max).max(1.0);
+    let unit = c.map(|v| v / intensity);
+    let mut hsva = egui::ecolor::Hsva::from_rgb(unit);
+    let mut new_intensity = intensity;
+    ui.label("colour");
+    let changed = egui::widgets::color_picker::color_edit_button_hsva(
+        ui,
+        &mut hsva,
+        egui::widgets::color_picker::Alpha::Opaque,
+    )
+    .changed();
+    let intensity_changed = ui
+        .add(
+            egui::Slider::new(&mut new_intensity, 1.0..=16.0)
+                .logarithmic(true)
+                .text("intensity"),
+        )
+        .on_hover_text("Multiplies the colour: values above 1 paint highlights brighter than white")
+        .changed();
+    if changed || intensity_changed {
+        let rgb = hsva.to_rgb();
+        app.brush.colour = [rgb[0], rgb[1], rgb[2]].map(|v| v * new_intensity);
+    }
+    ui.label(format!(
+        "({:.2}, {:.2}, {:.2})",
+        app.brush.colour[0], app.brush.colour[1], app.brush.colour[2]
+    ));
+}
+
+fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    let Some(doc) = app.views.get(app.active) else {
+        return;
+    };
+    let view_id = doc.id;
+    let resolution = doc.canvas.resolution();
+    let (panel, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
+    let view = &mut app.canvas_view;
+
+    // Zoom with the wheel around the pointer; pan with the middle button or space + drag.
+    let fit = (panel.width().min(panel.height()) / resolution as f32).max(1e-3);
+    let mut zoom = view.zoom.unwrap_or(fit);
+    if response.hovered() {
+        let (scroll, pointer) = ui.input(|i| (i.smooth_scroll_delta.y, i.pointer.hover_pos()));
+        if scroll != 0.0 {
+            let factor = (scroll / 200.0).exp();
+            let new_zoom = (zoom * factor).clamp(fit * 0.25, 32.0);
+            if let Some(p) = pointer {
+                let from_centre = p - panel.center() - view.pan;
+                view.pan -= from_centre * (new_zoom / zoom - 1.0);
+            }
+            zoom = new_zoom;
+            view.zoom = Some(zoom);
+        }
+    }
+    let panning = ui.input(|i| i.pointer.middle_down() || i.key_down(egui::Key::Space));
+    if panning && response.dragged() {
+        view.pan += response.drag_delta();
+    }
+    let size = Vec2::splat(resolution as f32 * zoom);
+    let rect = Rect::from_center_size(panel.center() + view.pan, size);
+    view.last_layout = Some((rect, resolution));
+
+    upload_texture(app, ui.ctx(), view_id);
+    let painter = ui.painter_at(panel);
+    painter.rect_filled(panel, 0.0, ui.visuals().extreme_bg_color);
+    if let Some((_, texture)) = &app.canvas_view.texture {
+        painter.image(
+            texture.id(),
+            rect,
+            Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+            Color32::WHITE,
+        );
+    }
+    if app.show_overlay {
+        update_overlay(app, ui.ctx());
+        if let Some((texture, _)) = &app.canvas_view.overlay {
+            painter.image(
+                texture.id(),
+                rect,
+                Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+                Color32::WHITE,
+            );
+        }
+    }
+    if !panning {
+        paint_input(app, ui, &response, rect, resolution);
+    }
+    if let Some(pos) = response.hover_pos() {
+        let radius = app.brush.size * 0.5 * zoom;
+        painter.circle_stroke(pos, radius, (1.0, Color32::from_white_alpha(160)));
+    }
+}
+
+fn upload_texture(app: &mut BurnishApp, ctx: &egui::Context, view_id: u32) {
+    let Some(doc) = app.views.get(app.active) else {
+        return;
+    };
+    let layers = doc.canvas.layers();
+    let width = layers.colour.width;
+    let view = &mut app.canvas_view;
+    let current = view
+        .texture
+        .as_ref()
+        .is_some_and(|(id, t)| *id == view_id && t.size() == [width, layers.colour.height]);
+    if !current || view.stale {
+        let full = PixelRect::new(0, 0, width as u32, layers.colour.height as u32);
+        let image = region_image(&layers.colour.pixels, width, full);
+        view.texture = Some((
+            view_id,
+            ctx.load_texture("canvas", image, TextureOptions::NEAREST),
+        ));
+        view.stale = false;
+        view.dirty = None;
+    } else if let Some(dirty) = view.dirty.take() {
+        let full = PixelRect::new(0, 0, width as u32, layers.colour.height as u32);
+        let dirty = dirty.intersect(&full);
+        if !dirty.is_empty() {
+            let image = region_image(&layers.colour.pixels, width, dirty);
+            if let Some((_, texture)) = &mut view.texture {
+                texture.set_partial(
+                    [dirty.x0 as usize, dirty.y0 as usize],
+                    image,
+                    TextureOptions::NEAREST,
+                );
+            }
+        }
+    }
+}
+
+/// Tints pixels whose bin is inconsistent (red) and lit pixels whose bin no view has
+/// reached yet (blue). Rebuilt at most four times a second.
+fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
+    let fresh = app
+        .canvas_view
+        .overlay
+        .as_ref()
+        .is_some_and(|(_, t)| t.elapsed() < Duration::from_millis(250));
+    if fresh {
+        return;
+    }
+    let Some(doc) = app.views.get(app.active) else {
+        return;
+    };
+    let n = doc.gbuffer.resolution();
+    let mut pixels = vec![Color32::TRANSPARENT; n * n];
+    for (i, point) in doc.gbuffer.pixels().iter().enumerate() {
+        let Some(p) = point else { continue };
+        let (Some(l), Some(v)) = (p.light_bin, p.view_bin) else {
+            continue;
+        };
+        if !p.is_lit() {
+            continue;
+        }
+        let pair = pair_index(l, v) as u32;
+        if app.inconsistent.contains(&pair) {
+            pixels[i] = Color32::from_rgba_unmultiplied(255, 40, 40, 150);
+        } else if !app.observed.contains_key(&pair) {
+            pixels[i] = Color32::from_rgba_unmultiplied(40, 120, 255, 70);
+        }
+    }
+    let image = ColorImage::new([n, n], pixels);
+    app.canvas_view.overlay = Some((
+        ctx.load_texture("overlay", image, TextureOptions::NEAREST),
+        Instant::now(),
+    ));
+}
+
+fn paint_input(
+    app: &mut BurnishApp,
+    ui: &egui::Ui,
+    response: &egui::Response,
+    rect: Rect,
+    resolution: usize,
+) {
+    let frame_start = Instant::now();
+    let (events, primary_down) = ui.input(|i| (i.events.clone(), i.pointer.primary_down()));
+    for event in &events {
+        if let egui::Event::Touch { force, .. } = event {
+            app.canvas_view.pressure = *force;
+        }
+    }
+    let pressure = app.canvas_view.pressure.unwrap_or(1.0);
+    let kind = app.brush.kind;
+    let brush = app.brush.clone();
+    let tip = app.active_tip.clone();
+    let Some(doc) = app.views.get_mut(app.active) else {
+        return;
+    };
+    let to_canvas = |pos: Pos2| CanvasView::to_canvas(rect, resolution, pos);
+
+    if response.drag_started_by(egui::PointerButton::Primary)
+        || response.clicked_by(egui::PointerButton::Primary)
+    {
+        if let Some(pos) = response.interact_pointer_pos() {
+            let (x, y) = to_canvas(pos);
+            match kind {
+                BrushKind::Eyedropper => {
+                    app.brush.colour = doc.canvas.pick(x, y);
+                    return;
+                }
+                BrushKind::Fill => {
+                    doc.canvas.fill(&brush);
+                    let changes = doc.canvas.take_changes();
+                    app.publish_canvas_changes(changes, frame_start);
+                    return;
+                }
+                _ => {
+                    doc.canvas.set_tip(tip);
+                    doc.canvas.begin_stroke(&brush, x, y, pressure);
+                    app.canvas_view.stroke = Some(StrokeInput {
+                        last_time: frame_start,
+                    });
+                }
+            }
+        }
+    } else if app.canvas_view.stroke.is_some() {
+        let mut moved = false;
+        for event in &events {
+            if let egui::Event::PointerMoved(pos) = event {
+                let (x, y) = to_canvas(*pos);
+                doc.canvas.continue_stroke(x, y, pressure);
+                moved = true;
+            }
+        }
+        if let Some(stroke) = &mut app.canvas_view.stroke {
+            let dt = frame_start.duration_since(stroke.last_time).as_secs_f32();
+            stroke.last_time = frame_start;
+            if !moved && kind == BrushKind::Airbrush && primary_down {
+                doc.canvas.airbrush_tick(dt);
+                ui.ctx().request_repaint();
+            }
+        }
+    }
+    let released = app.canvas_view.stroke.is_some() && !primary_down;
+    if released {
+        doc.canvas.end_stroke();
+        app.canvas_view.stroke = None;
+    }
+    let changes = doc.canvas.take_changes();
+    app.publish_canvas_changes(changes, frame_start);
+}

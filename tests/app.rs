@@ -1,0 +1,298 @@
+//! The real app, driven by egui_kittest on the real wgpu renderer (Mesa's lavapipe in CI):
+//! strokes made with pointer events reach the sparse table, the solver and the preview;
+//! undo restores paint bit for bit; views add samples; sessions round-trip.
+//! No adapter is a failure here, never a skip.
+
+mod common;
+
+use burnish::app::{Action, AppConfig, BurnishApp};
+use burnish::scene::Scene;
+use egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::Harness;
+use std::path::PathBuf;
+use std::time::Duration;
+
+const WINDOW: Vec2 = Vec2::new(1400.0, 860.0);
+
+fn config() -> AppConfig {
+    AppConfig {
+        basis: Some(common::small_basis(8)),
+        brushes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("brushes"),
+        autosave: false,
+        scene: Scene {
+            resolution: 256,
+            ..Scene::default()
+        },
+        ..AppConfig::default()
+    }
+}
+
+fn open_app(config: AppConfig) -> Harness<'static, BurnishApp> {
+    let mut harness = Harness::builder()
+        .with_size(WINDOW)
+        .wgpu()
+        .build_eframe(move |cc| BurnishApp::new(cc, config));
+    settle(&mut harness);
+    harness
+}
+
+/// Lets the worker finish and the UI draw what it published.
+fn settle(harness: &mut Harness<'static, BurnishApp>) {
+    harness.run_steps(2);
+    harness
+        .state()
+        .worker
+        .sync(Duration::from_secs(60))
+        .expect("the worker answers");
+    harness.run_steps(3);
+}
+
+/// A stroke across the canvas from `from` to `to` (fractions of the canvas side).
+fn stroke(harness: &mut Harness<'static, BurnishApp>, from: (f32, f32), to: (f32, f32)) {
+    let (rect, _) = harness
+        .state()
+        .canvas_layout()
+        .expect("the canvas was laid out");
+    let at = |(u, v): (f32, f32)| {
+        Pos2::new(
+            rect.min.x + u * rect.width(),
+            rect.min.y + v * rect.height(),
+        )
+    };
+    let start = at(from);
+    harness.event(Event::PointerMoved(start));
+    harness.step();
+    harness.event(Event::PointerButton {
+        pos: start,
+        button: PointerButton::Primary,
+        pressed: true,
+        modifiers: Modifiers::NONE,
+    });
+    harness.step();
+    let steps = 12;
+    for i in 1..=steps {
+        let t = i as f32 / steps as f32;
+        let p = at((from.0 + (to.0 - from.0) * t, from.1 + (to.1 - from.1) * t));
+        harness.event(Event::PointerMoved(p));
+        harness.step();
+    }
+    harness.event(Event::PointerButton {
+        pos: at(to),
+        button: PointerButton::Primary,
+        pressed: false,
+        modifiers: Modifiers::NONE,
+    });
+    harness.step();
+    settle(harness);
+}
+
+fn preview_pixels(harness: &mut Harness<'static, BurnishApp>) -> Vec<[u8; 4]> {
+    let rect = harness
+        .state()
+        .preview_rect()
+        .expect("the preview was laid out");
+    let image = harness
+        .render()
+        .expect("the wgpu renderer draws the window");
+    let ppp = 1.0;
+    let mut out = Vec::new();
+    for y in (rect.min.y * ppp) as u32..(rect.max.y * ppp) as u32 {
+        for x in (rect.min.x * ppp) as u32..(rect.max.x * ppp) as u32 {
+            if x < image.width() && y < image.height() {
+                out.push(image.get_pixel(x, y).0);
+            }
+        }
+    }
+    out
+}
+
+fn differing(a: &[[u8; 4]], b: &[[u8; 4]]) -> usize {
+    a.iter().zip(b).filter(|(p, q)| p != q).count()
+}
+
+#[test]
+fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
+    let mut harness = open_app(config());
+    let before = harness.state().snapshot.clone();
+    assert_eq!(before.stats.samples, 0, "a fresh session has no samples");
+    assert!(before.basis.is_some(), "the given basis is installed");
+    let preview_before = preview_pixels(&mut harness);
+
+    {
+        let app = harness.state_mut();
+        app.brush.kind = burnish::paint::BrushKind::Round;
+        app.brush.colour = [0.9, 0.2, 0.1];
+        app.brush.size = 30.0;
+        app.brush.opacity = 1.0;
+        app.brush.flow = 1.0;
+    }
+    stroke(&mut harness, (0.3, 0.35), (0.7, 0.45));
+    let app = harness.state();
+    let after = app.snapshot.clone();
+    assert!(after.version > before.version);
+    assert!(
+        after.stats.samples > 200,
+        "samples: {}",
+        after.stats.samples
+    );
+    assert!(after.stats.observed_bins > 20);
+    assert!(
+        !app.observed.is_empty(),
+        "the UI mirrors the sparse table's bins"
+    );
+    let moved: f64 = after
+        .coefficients
+        .iter()
+        .zip(before.coefficients.iter())
+        .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).sum::<f64>())
+        .sum();
+    assert!(moved > 1e-3, "the coefficients change ({moved})");
+    let preview_after = preview_pixels(&mut harness);
+    let changed = differing(&preview_before, &preview_after);
+    assert!(
+        changed > 500,
+        "the preview draws the new BRDF ({changed} pixels changed)"
+    );
+}
+
+#[test]
+fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
+    let mut harness = open_app(config());
+    let original = harness.state().views[0].canvas.layers().clone();
+    harness.state_mut().brush.colour = [2.5, 2.0, 1.5];
+    stroke(&mut harness, (0.2, 0.5), (0.8, 0.5));
+    let painted = harness.state().views[0].canvas.layers().clone();
+    assert!(painted != original, "the stroke painted");
+    assert!(harness.state().snapshot.stats.samples > 0);
+
+    assert!(harness.state().views[0].canvas.can_undo());
+    harness.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    settle(&mut harness);
+    let undone = harness.state().views[0].canvas.layers();
+    let differing = (0..undone.coverage.len())
+        .filter(|&i| {
+            undone.coverage[i].to_bits() != original.coverage[i].to_bits()
+                || undone.colour.pixels[i].map(f32::to_bits)
+                    != original.colour.pixels[i].map(f32::to_bits)
+        })
+        .count();
+    assert_eq!(
+        differing,
+        0,
+        "undo restores colour and coverage bit for bit ({} painted pixels left)",
+        undone.painted_count()
+    );
+    assert_eq!(
+        harness.state().snapshot.stats.samples,
+        0,
+        "and the samples leave the table"
+    );
+
+    harness.key_press_modifiers(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
+    settle(&mut harness);
+    assert!(
+        harness.state().views[0].canvas.layers() == &painted,
+        "redo reapplies the stroke"
+    );
+    assert!(harness.state().snapshot.stats.samples > 0);
+}
+
+#[test]
+fn a_second_view_contributes_samples() {
+    let mut harness = open_app(config());
+    stroke(&mut harness, (0.3, 0.3), (0.6, 0.6));
+    let one_view = harness.state().snapshot.stats;
+
+    harness.state_mut().perform(Action::AddView);
+    {
+        let app = harness.state_mut();
+        assert_eq!(app.views.len(), 2);
+        assert_eq!(app.active, 1);
+        let mut scene = app.views[1].scene.clone();
+        scene.light.azimuth_deg = -60.0;
+        scene.light.elevation_deg = 25.0;
+        app.set_scene(1, scene).expect("the new light applies");
+    }
+    settle(&mut harness);
+    stroke(&mut harness, (0.3, 0.3), (0.6, 0.6));
+    let two_views = harness.state().snapshot.stats;
+    assert!(two_views.samples > one_view.samples);
+    assert!(
+        two_views.observed_bins > one_view.observed_bins,
+        "another light reaches other bins ({} → {})",
+        one_view.observed_bins,
+        two_views.observed_bins
+    );
+
+    // Muting the second view takes exactly its samples out.
+    harness.state_mut().set_muted(1, true);
+    settle(&mut harness);
+    assert_eq!(harness.state().snapshot.stats.samples, one_view.samples);
+}
+
+#[test]
+fn save_then_open_reproduces_the_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("painted.burnish");
+    let mut harness = open_app(config());
+    harness.state_mut().brush.colour = [0.1, 0.4, 3.0];
+    stroke(&mut harness, (0.25, 0.6), (0.75, 0.3));
+    harness.state_mut().perform(Action::AddView);
+    settle(&mut harness);
+    stroke(&mut harness, (0.4, 0.2), (0.4, 0.8));
+    harness.state_mut().set_muted(0, true);
+    settle(&mut harness);
+    harness
+        .state_mut()
+        .perform(Action::SaveSession(path.clone()));
+    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    let saved = harness.state().to_session();
+    let stats = harness.state().snapshot.stats;
+
+    let mut reopened = open_app(AppConfig {
+        session: Some(path.clone()),
+        ..config()
+    });
+    settle(&mut reopened);
+    assert_eq!(reopened.state().to_session(), saved);
+    assert_eq!(reopened.state().snapshot.stats.samples, stats.samples);
+    assert_eq!(
+        reopened.state().snapshot.stats.observed_bins,
+        stats.observed_bins
+    );
+    // The same samples, added in another order: equal up to rounding of the sums.
+    let (a, b) = (
+        &reopened.state().snapshot.coefficients,
+        &harness.state().snapshot.coefficients,
+    );
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(b.iter()) {
+        for c in 0..3 {
+            assert!(
+                (x[c] - y[c]).abs() <= 1e-9 * (1.0 + y[c].abs()),
+                "the same samples give the same solution: {x:?} vs {y:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_bad_session_says_why_and_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.burnish");
+    std::fs::write(&path, b"not a zip archive").unwrap();
+    let mut harness = open_app(config());
+    let before = harness.state().to_session();
+    harness
+        .state_mut()
+        .perform(Action::OpenSession(path.clone()));
+    let app = harness.state();
+    let error = app
+        .notices
+        .iter()
+        .find(|n| n.is_error)
+        .expect("an error is shown");
+    assert!(error.text.contains("broken.burnish"), "{}", error.text);
+    assert_eq!(app.to_session(), before);
+    assert_eq!(std::fs::read(&path).unwrap(), b"not a zip archive");
+}

@@ -1,0 +1,115 @@
+//! Stroke-to-preview latency of the real app: pointer event → the first frame whose preview
+//! draws coefficients that include it, with the wgpu renderer drawing every frame (lavapipe
+//! here, or whatever adapter wgpu picks). A 1024² canvas, the default basis (K = 20, from the
+//! cache), continuous painting at a steady frame rate.
+//!
+//! `cargo bench --bench latency` prints p50, p95 and max latency, frame times and the most
+//! commands ever waiting for the worker (the worker keeps up when that stays small).
+
+use burnish::app::{AppConfig, BurnishApp};
+use burnish::basis::BasisCache;
+use burnish::scene::Scene;
+use egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::Harness;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+fn main() {
+    let frames: usize = std::env::var("LATENCY_FRAMES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(240);
+    let settings = burnish::session::BasisSettings::default();
+    let spec = burnish::app::basis_spec(&settings);
+    let cache = BasisCache::default_location().expect("a cache folder");
+    let started = Instant::now();
+    let (basis, outcome) = cache
+        .load_or_build(&spec, false, &|_| {})
+        .expect("the default basis");
+    eprintln!(
+        "basis K={} {:?} in {:.1} s",
+        basis.components(),
+        outcome,
+        started.elapsed().as_secs_f64()
+    );
+    let config = AppConfig {
+        basis: Some(basis),
+        brushes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("brushes"),
+        autosave: false,
+        scene: Scene {
+            resolution: 1024,
+            ..Scene::default()
+        },
+        ..AppConfig::default()
+    };
+    let mut harness = Harness::builder()
+        .with_size(Vec2::new(1600.0, 900.0))
+        .wgpu()
+        .with_render_every_step(true)
+        .build_eframe(move |cc| BurnishApp::new(cc, config));
+    harness.run_steps(3);
+    harness.state_mut().brush.size = 60.0;
+    harness.state_mut().brush.colour = [0.8, 0.5, 0.3];
+    let (rect, resolution) = harness.state().canvas_layout().expect("canvas laid out");
+    eprintln!("canvas {resolution}², drawn at {:.0} points", rect.width());
+
+    // A slow spiral over the sphere, one pointer event per frame.
+    let at = |t: f32| {
+        let r = 0.1 + 0.25 * t;
+        let a = t * 40.0;
+        Pos2::new(
+            rect.center().x + r * a.cos() * rect.width(),
+            rect.center().y + r * a.sin() * rect.height(),
+        )
+    };
+    harness.event(Event::PointerMoved(at(0.0)));
+    harness.event(Event::PointerButton {
+        pos: at(0.0),
+        button: PointerButton::Primary,
+        pressed: true,
+        modifiers: Modifiers::NONE,
+    });
+    let mut frame_ms = Vec::with_capacity(frames);
+    let mut max_queue = 0;
+    for i in 0..frames {
+        let frame_start = Instant::now();
+        harness.event(Event::PointerMoved(at(i as f32 / frames as f32)));
+        harness.step();
+        max_queue = max_queue.max(harness.state().worker.queued());
+        frame_ms.push(frame_start.elapsed().as_secs_f64() * 1e3);
+    }
+    harness.event(Event::PointerButton {
+        pos: at(1.0),
+        button: PointerButton::Primary,
+        pressed: false,
+        modifiers: Modifiers::NONE,
+    });
+    harness.step();
+    harness.state().worker.sync(Duration::from_secs(30));
+    harness.run_steps(3);
+
+    let app = harness.state();
+    let percentile = |v: &[f64], q: f64| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s[((s.len() - 1) as f64 * q).round() as usize]
+    };
+    let latencies = &app.latencies_ms;
+    assert!(!latencies.is_empty(), "no stroke reached the preview");
+    println!(
+        "stroke-to-preview latency over {} updates: p50 {:.1} ms, p95 {:.1} ms, max {:.1} ms",
+        latencies.len(),
+        percentile(latencies, 0.5),
+        percentile(latencies, 0.95),
+        percentile(latencies, 1.0)
+    );
+    println!(
+        "frame time (UI + render): p50 {:.1} ms, p95 {:.1} ms; most commands queued: {max_queue}",
+        percentile(&frame_ms, 0.5),
+        percentile(&frame_ms, 0.95)
+    );
+    println!(
+        "samples {}, observed bins {}, last worker batch {:.2} ms",
+        app.snapshot.stats.samples, app.snapshot.stats.observed_bins, app.snapshot.stats.update_ms
+    );
+}

@@ -498,9 +498,10 @@ mod tests {
             let camera = CameraFrame::new(&frame.camera, 64, 64);
             assert!((camera.eye - rig.eye).length() < 1e-12);
             assert!((camera.half_y - rig.half_extent).abs() < 1e-12);
-            // A point along the ray of pixel (10, 50) lands on that pixel's centre in NDC.
+            // The point of pixel (10, 50)'s ray nearest the object's centre (so inside the
+            // depth range the object spans) lands on that pixel's centre in NDC.
             let (origin, dir) = rig.pixel_ray(10, 50);
-            let p = origin + dir * 1.7;
+            let p = origin + dir * -origin.dot(dir);
             let clip = camera.view_proj * p.extend(1.0);
             let ndc = clip.truncate() / clip.w;
             assert!((ndc.x - (10.5 / 64.0 * 2.0 - 1.0)).abs() < 1e-12, "{ndc}");

@@ -108,8 +108,8 @@ fn brush_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
         }
         ui.separator();
         if !app.presets.is_empty() {
-            egui::ComboBox::from_id_salt("preset")
-                .selected_text("Presets")
+            egui::ComboBox::from_label("presets")
+                .selected_text("choose…")
                 .show_ui(ui, |ui| {
                     for preset in &app.presets {
                         if ui.selectable_label(false, &preset.name).clicked() {

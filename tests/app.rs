@@ -5,10 +5,11 @@
 
 mod common;
 
-use burnish::app::{Action, AppConfig, BurnishApp};
+use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab};
 use burnish::scene::Scene;
 use egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -295,4 +296,184 @@ fn a_bad_session_says_why_and_changes_nothing() {
     assert!(error.text.contains("broken.burnish"), "{}", error.text);
     assert_eq!(app.to_session(), before);
     assert_eq!(std::fs::read(&path).unwrap(), b"not a zip archive");
+}
+
+/// Compares the window with `tests/snapshots/<name>.png` (`UPDATE_SNAPSHOTS=1` rewrites it).
+/// The figures that change from run to run, the solve time and the latency, end the status
+/// bar; from the solve time to the window's edge is masked.
+fn window_snapshot(harness: &mut Harness<'static, BurnishApp>, name: &str) {
+    harness.remove_cursor();
+    harness.run_steps(2);
+    let timings = harness.get_by_label_contains("solve ").rect();
+    harness.mask(egui::Rect::from_min_max(
+        timings.min,
+        egui::pos2(WINDOW.x, timings.max.y),
+    ));
+    harness.snapshot(name);
+}
+
+#[test]
+fn main_window_snapshots() {
+    let mut harness = open_app(config());
+    window_snapshot(&mut harness, "main_window_fresh");
+
+    harness.state_mut().brush.colour = [1.6, 0.5, 0.2];
+    stroke(&mut harness, (0.25, 0.4), (0.75, 0.4));
+    window_snapshot(&mut harness, "main_window_painted");
+
+    harness.get_by_label("Lobe").click();
+    settle(&mut harness);
+    window_snapshot(&mut harness, "main_window_lobe");
+
+    harness.get_by_label("Table").click();
+    settle(&mut harness);
+    window_snapshot(&mut harness, "main_window_table");
+
+    harness.state_mut().preview_tab = PreviewTab::Object;
+    harness.state_mut().perform(Action::AddView);
+    {
+        let app = harness.state_mut();
+        let mut scene = app.views[1].scene.clone();
+        scene.light.azimuth_deg = -60.0;
+        scene.light.elevation_deg = 25.0;
+        app.set_scene(1, scene).expect("the new light applies");
+        app.brush.colour = [0.2, 0.5, 1.4];
+    }
+    settle(&mut harness);
+    stroke(&mut harness, (0.5, 0.2), (0.5, 0.8));
+    harness.state_mut().show_overlay = true;
+    settle(&mut harness);
+    window_snapshot(&mut harness, "main_window_two_views_overlay");
+}
+
+fn click_at(harness: &mut Harness<'static, BurnishApp>, pos: Pos2) {
+    harness.event(Event::PointerMoved(pos));
+    harness.step();
+    for pressed in [true, false] {
+        harness.event(Event::PointerButton {
+            pos,
+            button: PointerButton::Primary,
+            pressed,
+            modifiers: Modifiers::NONE,
+        });
+        harness.step();
+    }
+    harness.run_steps(2);
+}
+
+#[test]
+fn the_eyedropper_picks_the_colour_the_preview_shows() {
+    let mut harness = open_app(config());
+    harness.state_mut().brush.colour = [0.8, 0.3, 0.1];
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    harness.get_by_label("Pick").click();
+    harness.run_steps(2);
+    assert_eq!(
+        harness.state().brush.kind,
+        burnish::paint::BrushKind::Eyedropper
+    );
+    let rect = harness
+        .state()
+        .preview_rect()
+        .expect("the preview is laid out");
+    let window = harness.render().expect("the window renders");
+
+    harness.state_mut().brush.colour = [9.0, 9.0, 9.0];
+    let centre = rect.center();
+    click_at(&mut harness, centre);
+    let picked = harness.state().brush.colour;
+    assert_ne!(picked, [9.0, 9.0, 9.0], "a click on the object picks");
+    assert!(
+        picked.iter().all(|c| c.is_finite() && *c >= 0.0),
+        "{picked:?}"
+    );
+    // What was picked is what the window shows there, before the display's sRGB encoding.
+    let shown = window.get_pixel(centre.x as u32, centre.y as u32).0;
+    for c in 0..3 {
+        let encoded = burnish::scene::srgb_encode(picked[c].min(1.0)) * 255.0;
+        assert!(
+            (encoded - shown[c] as f32).abs() <= 3.0,
+            "channel {c}: picked {picked:?} encodes to {encoded}, the window shows {shown:?}"
+        );
+    }
+
+    // The background has no colour to pick.
+    harness.state_mut().brush.colour = [9.0, 9.0, 9.0];
+    click_at(&mut harness, rect.min + Vec2::splat(3.0));
+    assert_eq!(harness.state().brush.colour, [9.0, 9.0, 9.0]);
+}
+
+#[test]
+fn an_imported_painting_is_one_edit_that_undo_takes_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut harness = open_app(config());
+    let original = harness.state().views[0].canvas.layers().clone();
+    // The exported guide, brightened in an "external editor", comes back as a painting.
+    let guide_path = dir.path().join("guide.png");
+    harness
+        .state_mut()
+        .perform(Action::ExportGuide(guide_path.clone()));
+    let mut image = burnish::scene::read_painting(&guide_path, 256).unwrap();
+    for p in &mut image.pixels {
+        *p = [p[0] * 1.5, p[1] * 0.8, p[2] * 0.5];
+    }
+    let painting = dir.path().join("painting.png");
+    burnish::scene::write_png(&painting, &image).unwrap();
+    harness
+        .state_mut()
+        .perform(Action::ImportPainting(painting.clone()));
+    settle(&mut harness);
+    assert!(
+        harness.state().notices.iter().all(|n| !n.is_error),
+        "{:?}",
+        harness
+            .state()
+            .notices
+            .iter()
+            .map(|n| &n.text)
+            .collect::<Vec<_>>()
+    );
+    let imported = harness.state().views[0].canvas.layers().clone();
+    assert!(
+        imported.painted_count() > 10_000,
+        "{}",
+        imported.painted_count()
+    );
+    let samples = harness.state().snapshot.stats.samples;
+    assert!(samples > 10_000, "{samples} samples");
+
+    harness.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    settle(&mut harness);
+    assert!(
+        harness.state().views[0].canvas.layers() == &original,
+        "undo takes the import back"
+    );
+    assert_eq!(harness.state().snapshot.stats.samples, 0);
+    harness.key_press_modifiers(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
+    settle(&mut harness);
+    assert!(harness.state().views[0].canvas.layers() == &imported);
+    assert_eq!(harness.state().snapshot.stats.samples, samples);
+
+    // A painting of the wrong size is refused, naming the file; the canvas keeps its paint.
+    let small = dir.path().join("small.png");
+    burnish::scene::write_png(
+        &small,
+        &burnish::image_io::RgbImage {
+            width: 64,
+            height: 64,
+            pixels: vec![[0.5; 3]; 64 * 64],
+        },
+    )
+    .unwrap();
+    harness
+        .state_mut()
+        .perform(Action::ImportPainting(small.clone()));
+    let error = harness
+        .state()
+        .notices
+        .iter()
+        .find(|n| n.is_error)
+        .expect("an error is shown");
+    assert!(error.text.contains("small.png"), "{}", error.text);
+    assert!(harness.state().views[0].canvas.layers() == &imported);
 }

@@ -75,9 +75,16 @@ fn region_image(pixels: &[[f32; 3]], width: usize, rect: PixelRect) -> ColorImag
 }
 
 pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    // The panel as laid out, before any row of the brush bar can widen the Ui past it: the
+    // canvas fits what is visible, not what the widest row asked for.
+    let panel = ui.max_rect();
+    ui.set_clip_rect(panel.intersect(ui.clip_rect()));
     brush_bar(app, ui);
     ui.separator();
-    canvas(app, ui);
+    let below_bar = Rect::from_min_max(egui::pos2(panel.min.x, ui.cursor().min.y), panel.max);
+    ui.scope_builder(egui::UiBuilder::new().max_rect(below_bar), |ui| {
+        canvas(app, ui);
+    });
 }
 
 const TOOLS: [(BrushKind, &str, &str); 9] = [
@@ -125,22 +132,42 @@ fn brush_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
     });
     ui.horizontal_wrapped(|ui| {
         let b = &mut app.brush;
+        wrap_before_slider(ui);
         ui.add(
             egui::Slider::new(&mut b.size, 1.0..=400.0)
                 .logarithmic(true)
                 .text("size"),
         )
         .on_hover_text("[ and ] change the size");
+        wrap_before_slider(ui);
         ui.add(egui::Slider::new(&mut b.hardness, 0.0..=1.0).text("hardness"));
+        wrap_before_slider(ui);
         ui.add(egui::Slider::new(&mut b.opacity, 0.0..=1.0).text("opacity"));
+        wrap_before_slider(ui);
         ui.add(egui::Slider::new(&mut b.flow, 0.01..=1.0).text("flow"));
+        wrap_before_slider(ui);
         ui.add(egui::Slider::new(&mut b.spacing, 0.02..=1.0).text("spacing"));
     });
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         colour_picker(app, ui);
+        wrap_before(ui, 240.0);
         ui.checkbox(&mut app.brush.pressure_size, "pressure: size");
         ui.checkbox(&mut app.brush.pressure_flow, "pressure: flow");
     });
+}
+
+/// Starts a new row of a wrapped layout unless `width` points still fit. egui lays a slider's
+/// parts out in a nested row, which its wrapped parent cannot move to the next line.
+fn wrap_before(ui: &mut egui::Ui, width: f32) {
+    if ui.available_size_before_wrap().x < width {
+        ui.end_row();
+    }
+}
+
+/// [`wrap_before`] the width of a slider with its value and a short label.
+fn wrap_before_slider(ui: &mut egui::Ui) {
+    let width = ui.spacing().slider_width + ui.spacing().interact_size.x + 70.0;
+    wrap_before(ui, width);
 }
 
 /// HSV with a separate intensity that may exceed 1 (HDR paint).
@@ -157,6 +184,7 @@ fn colour_picker(app: &mut BurnishApp, ui: &mut egui::Ui) {
         egui::widgets::color_picker::Alpha::Opaque,
     )
     .changed();
+    wrap_before_slider(ui);
     let intensity_changed = ui
         .add(
             egui::Slider::new(&mut new_intensity, 1.0..=16.0)

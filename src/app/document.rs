@@ -84,7 +84,7 @@ impl ViewDoc {
     }
 
     /// Replaces the painting with an image painted elsewhere: every object pixel becomes
-    /// paint of the image's colour. The undo history starts over, as the canvas is new.
+    /// paint of the image's colour, as one edit that Ctrl+Z takes back.
     pub fn import_painting(&mut self, image: &crate::image_io::RgbImage) -> crate::Result<()> {
         let guide = self.canvas.guide().clone();
         let mask = object_mask(&self.gbuffer);
@@ -95,8 +95,11 @@ impl ViewDoc {
                 layers.coverage[i] = 1.0;
             }
         }
-        self.canvas =
-            Canvas::from_layers(guide, mask, layers).map_err(|e| paint_error(&self.name, e))?;
+        self.canvas
+            .replace_layers(layers)
+            .map_err(|e| paint_error(&self.name, e))?;
+        // The caller hands the worker the whole painting at once; undo still sees the edit.
+        drop(self.canvas.take_changes());
         Ok(())
     }
 

@@ -52,6 +52,39 @@ impl PreviewState {
         state
     }
 
+    /// The linear radiance the preview shows at `pos` (exposure taken out, so it is in the
+    /// units the canvas paints in), read back from an off-screen render of the same frame;
+    /// `None` on the background or without a GPU preview.
+    pub fn pick(
+        &self,
+        frame: &crate::preview::PreviewFrame,
+        rect: egui::Rect,
+        pos: egui::Pos2,
+        pixels_per_point: f32,
+    ) -> Result<Option<[f32; 3]>, crate::preview::PreviewError> {
+        let Some(rs) = &self.render_state else {
+            return Ok(None);
+        };
+        let size = [
+            (rect.width() * pixels_per_point).round().max(1.0) as u32,
+            (rect.height() * pixels_per_point).round().max(1.0) as u32,
+        ];
+        let offset = (pos - rect.min) * pixels_per_point;
+        if offset.x < 0.0 || offset.y < 0.0 {
+            return Ok(None);
+        }
+        let pixel = [offset.x as u32, offset.y as u32];
+        let radiance = crate::preview::with_renderer(rs, |renderer| {
+            renderer.pick(&rs.device, &rs.queue, frame, size, pixel)
+        });
+        let unexposed = 2f32.powf(-frame.exposure_stops as f32);
+        Ok(radiance
+            .transpose()?
+            .flatten()
+            .map(|rgb| rgb.map(|c| (c * unexposed).max(0.0)))
+            .filter(|rgb| rgb.iter().all(|c| c.is_finite())))
+    }
+
     pub fn queue_sparse(&mut self, pair: u32, value: Option<[f32; 3]>) {
         if self.render_state.is_some() {
             self.pending_sparse.push((pair, value));
@@ -183,6 +216,16 @@ fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             let camera = &mut app.preview.camera;
             camera.yaw_deg = wrap_degrees(camera.yaw_deg - delta.x as f64 * 0.5);
             camera.pitch_deg = (camera.pitch_deg + delta.y as f64 * 0.5).clamp(-89.0, 89.0);
+        }
+    }
+    if app.brush.kind == crate::paint::BrushKind::Eyedropper && response.clicked() {
+        if let Some(pos) = response.interact_pointer_pos() {
+            let ppp = ui.ctx().pixels_per_point();
+            match app.preview_state.pick(&app.preview, rect, pos, ppp) {
+                Ok(Some(colour)) => app.brush.colour = colour,
+                Ok(None) => {}
+                Err(e) => app.notify_error(format!("preview eyedropper: {e}")),
+            }
         }
     }
     if response.double_clicked() {

@@ -22,8 +22,6 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
         ui.label(format!("skipped px {}", stats.skipped_pixels))
             .on_hover_text("Painted pixels in shadow or at grazing angles give no sample");
         ui.separator();
-        ui.label(format!("solve {:.2} ms", stats.update_ms));
-        ui.separator();
         ui.label(format!("cond {:.2e}", stats.condition_number));
         ui.separator();
         match app.basis_job.status() {
@@ -42,6 +40,13 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 ui.colored_label(ui.visuals().error_fg_color, format!("basis failed: {e}"));
             }
         }
+        if app.dirty {
+            ui.separator();
+            ui.label("unsaved");
+        }
+        // Timings last: their width changes from frame to frame, and nothing should move with it.
+        ui.separator();
+        ui.label(format!("solve {:.2} ms", stats.update_ms));
         if let (Some(p50), Some(p95)) = (app.latency_percentile(0.5), app.latency_percentile(0.95))
         {
             ui.separator();
@@ -49,10 +54,6 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .on_hover_text(
                     "Pointer event to the first preview frame with the new coefficients",
                 );
-        }
-        if app.dirty {
-            ui.separator();
-            ui.label("unsaved");
         }
     });
 }

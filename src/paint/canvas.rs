@@ -25,6 +25,10 @@ pub const AIRBRUSH_RATE: f32 = 10.0;
 const MIN_STEP: f32 = 0.5;
 /// The longest rest one airbrush tick accounts for; a stalled frame should not flood the spot.
 const MAX_TICK_SECONDS: f32 = 1.0;
+/// The most dabs one pointer event lays: 2¹⁶ dabs of the shortest step span 32768 px, far
+/// more than any canvas, so only a wild jump (a pointer far off the canvas) reaches it; the
+/// rest of such a move lays nothing, and a NaN-free f32 path always ends.
+const MAX_DABS_PER_EVENT: usize = 1 << 16;
 /// Marks a tile with no slot in a per-tile index.
 const NO_SLOT: u32 = u32::MAX;
 
@@ -52,6 +56,7 @@ pub enum CanvasError {
 ///
 /// Edits leave their changes in a batch that [`take_changes`](Self::take_changes) drains;
 /// [`undo`](Self::undo) and [`redo`](Self::redo) drain it themselves.
+#[derive(Clone)]
 pub struct Canvas {
     guide: RgbImage,
     object: Vec<bool>,
@@ -153,53 +158,46 @@ impl Canvas {
                 height: guide.height,
             });
         }
-        let expected = guide.pixels.len();
-        let sizes = [
-            ("the object mask", object_mask.len()),
-            ("the paint colour", layers.colour.pixels.len()),
-            ("the paint coverage", layers.coverage.len()),
-        ];
-        for (what, found) in sizes {
-            if found != expected {
-                return Err(CanvasError::SizeMismatch {
-                    what,
-                    expected,
-                    found,
-                });
-            }
-        }
-        if (layers.colour.width, layers.colour.height) != (guide.width, guide.height) {
-            return Err(CanvasError::SizeMismatch {
-                what: "the paint colour's rows",
-                expected: guide.width,
-                found: layers.colour.width,
-            });
-        }
-        for (pixel, (c, v)) in layers
-            .colour
-            .pixels
-            .iter()
-            .zip(&layers.coverage)
-            .enumerate()
-        {
-            if !c.iter().all(|x| x.is_finite() && *x >= 0.0) {
-                let problem = format!("colour {c:?} is not a finite non-negative colour");
-                return Err(CanvasError::BadPixel { pixel, problem });
-            }
-            if !(0.0..=1.0).contains(v) {
-                let problem = format!("coverage {v} is outside [0, 1]");
-                return Err(CanvasError::BadPixel { pixel, problem });
-            }
-        }
+        check_layers(&guide, object_mask.len(), &layers)?;
         let mut canvas = Self::new(guide, object_mask);
         canvas.layers = layers;
-        for i in 0..expected {
-            if !canvas.object[i] || canvas.layers.coverage[i] == 0.0 {
-                canvas.layers.colour.pixels[i] = canvas.guide.pixels[i];
-                canvas.layers.coverage[i] = 0.0;
+        canvas.unpaint_where_uncovered();
+        Ok(canvas)
+    }
+
+    /// Replaces the whole painting with `layers` (an imported image, say) as one edit that
+    /// undo takes back; the same checks as [`from_layers`](Self::from_layers). The changed
+    /// pixels come out of [`take_changes`](Self::take_changes) like any edit's.
+    pub fn replace_layers(&mut self, mut layers: PaintLayers) -> Result<(), CanvasError> {
+        check_layers(&self.guide, self.object.len(), &layers)?;
+        self.end_stroke();
+        std::mem::swap(&mut self.layers, &mut layers);
+        self.unpaint_where_uncovered();
+        let incoming = std::mem::replace(&mut self.layers, layers);
+        let mut edit = Edit::new(self.grid.count());
+        let width = self.resolution();
+        for tile in 0..self.grid.count() {
+            let rect = self.grid.rect(tile);
+            self.touch(&mut edit, tile, rect);
+            for y in rect.y0 as usize..rect.y1 as usize {
+                let row = y * width + rect.x0 as usize..y * width + rect.x1 as usize;
+                self.layers.colour.pixels[row.clone()]
+                    .copy_from_slice(&incoming.colour.pixels[row.clone()]);
+                self.layers.coverage[row.clone()].copy_from_slice(&incoming.coverage[row]);
             }
         }
-        Ok(canvas)
+        self.commit(edit);
+        Ok(())
+    }
+
+    /// Shows the guide, with no coverage, wherever nothing is painted or there is no object.
+    fn unpaint_where_uncovered(&mut self) {
+        for i in 0..self.guide.pixels.len() {
+            if !self.object[i] || self.layers.coverage[i] == 0.0 {
+                self.layers.colour.pixels[i] = self.guide.pixels[i];
+                self.layers.coverage[i] = 0.0;
+            }
+        }
     }
 
     pub fn layers(&self) -> &PaintLayers {
@@ -276,21 +274,31 @@ impl Canvas {
 
     /// Moves the stroke in progress to (`x`, `y`), laying dabs every `spacing × size` along
     /// the way (position and pressure interpolated; the distance left over carries on to
-    /// the next event). Does nothing without a stroke or with a non-finite position.
+    /// the next event; at most 65536 dabs per event). Does nothing without a stroke or with a
+    /// non-finite position.
     pub fn continue_stroke(&mut self, x: f32, y: f32, pressure: f32) {
         let Some(mut stroke) = self.stroke.take() else {
             return;
         };
-        if x.is_finite() && y.is_finite() {
-            let pressure = sanitise_pressure(pressure);
-            let (x0, y0, p0) = stroke.last;
-            let (dx, dy, dp) = (x - x0, y - y0, pressure - p0);
-            let distance = dx.hypot(dy);
+        if !(x.is_finite() && y.is_finite()) {
+            self.stroke = Some(stroke);
+            return;
+        }
+        let pressure = sanitise_pressure(pressure);
+        let (x0, y0, p0) = stroke.last;
+        let (dx, dy, dp) = (x - x0, y - y0, pressure - p0);
+        let distance = dx.hypot(dy);
+        // A distance that overflows is a jump from far off the canvas: no dabs on the way.
+        if distance.is_finite() {
             let mut travelled = 0.0;
-            loop {
+            for laid in 0.. {
                 let need = stroke.to_next;
                 if travelled + need > distance {
                     stroke.to_next = need - (distance - travelled);
+                    break;
+                }
+                if laid == MAX_DABS_PER_EVENT {
+                    stroke.to_next = stroke.step(pressure);
                     break;
                 }
                 travelled += need;
@@ -299,15 +307,15 @@ impl Canvas {
                 self.lay_dab(&mut stroke, x0 + dx * t, y0 + dy * t, p, None);
                 stroke.to_next = stroke.step(p);
             }
-            stroke.last = (x, y, pressure);
         }
+        stroke.last = (x, y, pressure);
         self.stroke = Some(stroke);
     }
 
     /// Lets an airbrush stroke build up while the pointer rests: lays one dab at the last
     /// position with the flow that `dt_seconds × AIRBRUSH_RATE` dabs would give
-    /// (1 − (1 − flow)^(dt·rate)), so the build-up does not depend on the frame rate. Other
-    /// tools, and rests longer than a second, are not affected beyond that.
+    /// (1 − (1 − flow)^(dt·rate)), so the build-up hardly depends on the frame rate. Does
+    /// nothing for other tools or without a stroke; a rest over a second counts as a second.
     pub fn airbrush_tick(&mut self, dt_seconds: f32) {
         let Some(mut stroke) = self.stroke.take() else {
             return;
@@ -857,4 +865,52 @@ fn same_state(a: Option<[f32; 3]>, b: Option<[f32; 3]>) -> bool {
         (Some(a), Some(b)) => a.map(f32::to_bits) == b.map(f32::to_bits),
         _ => false,
     }
+}
+
+/// Checks that `layers` fit a canvas with this guide and a mask of `mask_len` pixels and hold
+/// only finite, non-negative colour and coverage within [0, 1].
+fn check_layers(
+    guide: &RgbImage,
+    mask_len: usize,
+    layers: &PaintLayers,
+) -> Result<(), CanvasError> {
+    let expected = guide.pixels.len();
+    let sizes = [
+        ("the object mask", mask_len),
+        ("the paint colour", layers.colour.pixels.len()),
+        ("the paint coverage", layers.coverage.len()),
+    ];
+    for (what, found) in sizes {
+        if found != expected {
+            return Err(CanvasError::SizeMismatch {
+                what,
+                expected,
+                found,
+            });
+        }
+    }
+    if (layers.colour.width, layers.colour.height) != (guide.width, guide.height) {
+        return Err(CanvasError::SizeMismatch {
+            what: "the paint colour's rows",
+            expected: guide.width,
+            found: layers.colour.width,
+        });
+    }
+    for (pixel, (c, v)) in layers
+        .colour
+        .pixels
+        .iter()
+        .zip(&layers.coverage)
+        .enumerate()
+    {
+        if !c.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            let problem = format!("colour {c:?} is not a finite non-negative colour");
+            return Err(CanvasError::BadPixel { pixel, problem });
+        }
+        if !(0.0..=1.0).contains(v) {
+            let problem = format!("coverage {v} is outside [0, 1]");
+            return Err(CanvasError::BadPixel { pixel, problem });
+        }
+    }
+    Ok(())
 }

@@ -135,7 +135,7 @@ fn rows(grid: &TileGrid, rect: PixelRect) -> impl Iterator<Item = std::ops::Rang
 
 /// One undoable edit: the tiles it changed, holding their state from before the edit (while
 /// on the undo stack) or after it (while on the redo stack).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(crate) struct Step {
     pub tiles: Vec<TileData>,
 }
@@ -147,7 +147,7 @@ impl Step {
 }
 
 /// Undo and redo stacks under a memory budget shared by both.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(crate) struct History {
     undo: VecDeque<Step>,
     redo: Vec<Step>,

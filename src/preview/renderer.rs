@@ -948,7 +948,8 @@ impl PreviewRenderer {
                     resolve_target: None,
                     depth_slice: None,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
+                        // Alpha 0 marks the background (the object writes 1), for `pick`.
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 0.0 }),
                         store: wgpu::StoreOp::Store,
                     },
                 })],
@@ -1004,6 +1005,43 @@ impl PreviewRenderer {
         height: u32,
     ) -> Result<RgbImage, PreviewError> {
         self.prepare(device, queue, frame, [width, height])?;
+        let texels = self.read_texels(device, queue, [0, 0], [width, height])?;
+        Ok(RgbImage {
+            width: width as usize,
+            height: height as usize,
+            pixels: texels.iter().map(|t| [t[0], t[1], t[2]]).collect(),
+        })
+    }
+
+    /// What `frame`, drawn at `size`, shows at `pixel` (from the top left): its linear
+    /// radiance (times 2^exposure), or `None` where the pixel shows the background. Renders
+    /// the frame off screen and reads back that one texel: for an eyedropper on the preview.
+    pub fn pick(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        frame: &PreviewFrame,
+        size: [u32; 2],
+        pixel: [u32; 2],
+    ) -> Result<Option<[f32; 3]>, PreviewError> {
+        if pixel[0] >= size[0] || pixel[1] >= size[1] {
+            return Ok(None);
+        }
+        self.prepare(device, queue, frame, size)?;
+        let [t] = self.read_texels(device, queue, pixel, [1, 1])?[..] else {
+            unreachable!("one texel was read")
+        };
+        Ok((t[3] > 0.0).then_some([t[0], t[1], t[2]]))
+    }
+
+    /// Reads back a rectangle of the scene pass's colour target (RGBA f32), rows from the top.
+    fn read_texels(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        origin: [u32; 2],
+        [width, height]: [u32; 2],
+    ) -> Result<Vec<[f32; 4]>, PreviewError> {
         let target = self.target.as_ref().expect("prepared");
         let row_bytes = width * 16;
         let padded = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
@@ -1019,7 +1057,14 @@ impl PreviewRenderer {
             label: Some("preview readback"),
         });
         encoder.copy_texture_to_buffer(
-            target.colour.as_image_copy(),
+            wgpu::TexelCopyTextureInfo {
+                origin: wgpu::Origin3d {
+                    x: origin[0],
+                    y: origin[1],
+                    z: 0,
+                },
+                ..target.colour.as_image_copy()
+            },
             wgpu::TexelCopyBufferInfo {
                 buffer: &readback,
                 layout: wgpu::TexelCopyBufferLayout {
@@ -1036,16 +1081,13 @@ impl PreviewRenderer {
         );
         queue.submit([encoder.finish()]);
         let bytes = read_buffer(device, &readback)?;
-        let mut pixels = Vec::with_capacity(width as usize * height as usize);
+        let mut texels = Vec::with_capacity(width as usize * height as usize);
         for row in bytes.chunks_exact(padded as usize) {
-            let texels: &[[f32; 4]] = bytemuck::cast_slice(&row[..row_bytes as usize]);
-            pixels.extend(texels.iter().map(|t| [t[0], t[1], t[2]]));
+            texels.extend_from_slice(bytemuck::cast_slice::<u8, [f32; 4]>(
+                &row[..row_bytes as usize],
+            ));
         }
-        Ok(RgbImage {
-            width: width as usize,
-            height: height as usize,
-            pixels,
-        })
+        Ok(texels)
     }
 
     /// The table the GPU evaluated from the basis and coefficients (evaluating it first if

@@ -1,0 +1,152 @@
+//! Preview frame times on the headless adapter (Mesa lavapipe where there is no GPU): one frame
+//! is `prepare` (uniforms, passes, submit) and waiting for the GPU to finish, without readback.
+//! Also what painting costs per snapshot: new coefficients (K = 20) re-evaluated for all
+//! 1,313,010 pairs, and sparse-bin updates.
+
+use burnish::basis::{BasisSpec, build_basis};
+use burnish::materials::models::{Distribution, Fresnel, Microfacet};
+use burnish::materials::tabulate;
+use burnish::preview::{PreviewFrame, PreviewMode, PreviewRenderer, Sky, headless_gpu};
+use burnish::scene::{BuiltinShape, Object};
+use burnish::table::PAIRS;
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::time::Duration;
+
+fn previews(c: &mut Criterion) {
+    let (device, queue, info) = headless_gpu().expect("a GPU adapter (lavapipe will do)");
+    eprintln!("adapter: {} ({:?})", info.name, info.backend);
+    let mut renderer =
+        PreviewRenderer::new(&device, &queue, wgpu::TextureFormat::Rgba8Unorm).unwrap();
+    let glossy = Microfacet::isotropic(
+        Distribution::Ggx,
+        0.25,
+        Fresnel::Schlick {
+            f0: [0.9, 0.7, 0.5],
+        },
+    );
+    renderer.set_table(&tabulate(&glossy)).unwrap();
+    let basis = build_basis(&BasisSpec::small(20), &|_| {});
+    renderer.set_basis(&basis).unwrap();
+    let coefficients: Vec<Vec<[f64; 3]>> = (0..2)
+        .map(|seed| {
+            basis
+                .variances()
+                .iter()
+                .enumerate()
+                .map(|(k, v)| {
+                    let s = v.sqrt() * if (k + seed) % 2 == 0 { 0.5 } else { -0.5 };
+                    [s, 0.8 * s, 0.6 * s]
+                })
+                .collect()
+        })
+        .collect();
+    let sphere = Object::builtin(BuiltinShape::Sphere);
+    let bowl = Object::from_obj(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/meshes/bowl.obj"
+    ))
+    .unwrap();
+    let torus = Object::builtin(BuiltinShape::Torus);
+
+    let wait = |device: &wgpu::Device| {
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("poll");
+    };
+    let mut group = c.benchmark_group("preview");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(4));
+    for size in [512u32, 1024] {
+        let table = |interpolate| PreviewFrame {
+            mode: PreviewMode::Table,
+            interpolate,
+            ..PreviewFrame::default()
+        };
+        let lights = PreviewFrame {
+            second_light: Some(burnish::preview::DirectionalLight {
+                elevation_deg: 20.0,
+                azimuth_deg: -60.0,
+                intensity: 0.5,
+            }),
+            sky: Some(Sky { radiance: 0.3 }),
+            ..table(true)
+        };
+        let cases: [(&str, &Object, PreviewFrame); 5] = [
+            ("sphere table nearest", &sphere, table(false)),
+            ("sphere table interpolated", &sphere, table(true)),
+            (
+                "sphere interpolated, fill light and 12-direction sky",
+                &sphere,
+                lights,
+            ),
+            ("bowl mesh interpolated, shadows", &bowl, table(true)),
+            (
+                "torus mesh (37k triangles) interpolated, shadows",
+                &torus,
+                table(true),
+            ),
+        ];
+        for (name, object, frame) in cases {
+            renderer.set_object(object).unwrap();
+            group.bench_function(format!("{name} {size}²"), |b| {
+                b.iter(|| {
+                    renderer
+                        .prepare(&device, &queue, &frame, [size, size])
+                        .unwrap();
+                    wait(&device);
+                })
+            });
+        }
+        renderer.set_object(&sphere).unwrap();
+        let frame = PreviewFrame {
+            mode: PreviewMode::Reconstruction,
+            interpolate: true,
+            ..PreviewFrame::default()
+        };
+        let mut which = 0;
+        group.bench_function(
+            format!("sphere reconstruction K=20 with new coefficients, interpolated {size}²"),
+            |b| {
+                b.iter(|| {
+                    which ^= 1;
+                    renderer.set_coefficients(&coefficients[which]).unwrap();
+                    renderer
+                        .prepare(&device, &queue, &frame, [size, size])
+                        .unwrap();
+                    wait(&device);
+                })
+            },
+        );
+    }
+    // The evaluation alone: a 1 × 1 frame after new coefficients.
+    let frame = PreviewFrame {
+        mode: PreviewMode::Reconstruction,
+        ..PreviewFrame::default()
+    };
+    let mut which = 0;
+    group.bench_function("new coefficients: K=20 evaluation of all pairs", |b| {
+        b.iter(|| {
+            which ^= 1;
+            renderer.set_coefficients(&coefficients[which]).unwrap();
+            renderer.prepare(&device, &queue, &frame, [1, 1]).unwrap();
+            wait(&device);
+        })
+    });
+    // A dab's worth of sparse bins: 2,000 scattered pairs.
+    let changes: Vec<(u32, Option<[f32; 3]>)> = (0..2000u32)
+        .map(|i| ((i * 656_503) % PAIRS as u32, Some([0.2, 0.3, 0.4])))
+        .collect();
+    group.bench_function("update_sparse: 2,000 scattered pairs", |b| {
+        b.iter(|| {
+            renderer.update_sparse(&changes).unwrap();
+            queue.submit([]);
+            wait(&device);
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, previews);
+criterion_main!(benches);

@@ -1,11 +1,12 @@
 //! Micro-benchmarks of the live loop (issue figures): one 500-pixel dab to new coefficients,
 //! the full table from coefficients, lazy evaluation of a view's entries, and loading the
-//! default basis from its cache. Uses the default basis (built and cached on first run).
+//! default basis from its cache; and the time per dab against its changed pixel count
+//! (50, 500, 5000) and K (10, 20, 40). Uses the default bases (built and cached on first run).
 
 use burnish::basis::{BasisCache, BasisSpec};
 use burnish::solver::{Reconstruction, Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{DIRECTIONS, DirIndex};
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -91,9 +92,66 @@ fn engine(c: &mut Criterion) {
     });
 }
 
+/// A solver holding a painted view of 20,000 pixels.
+fn painted(k: usize) -> (SparseTable, Solver) {
+    let mut table = SparseTable::default();
+    let mut solver = Solver::new(default_basis(k), Regularization::Auto);
+    let mut changes = Vec::new();
+    for pixel in 0..20_000u32 {
+        let (d_l, d_v) = pixel_bins(pixel);
+        let key = SampleKey { view: 0, pixel };
+        table
+            .set_sample(key, d_l, d_v, [0.2, 0.3, 0.4], &mut changes)
+            .unwrap();
+    }
+    solver.apply_all(&changes);
+    (table, solver)
+}
+
+/// Time per dab (set the samples, update the normal equations, solve) against the number of
+/// changed pixels and K: the cost is O(changed bins · K²) plus the K × K solve.
+fn dab_scaling(c: &mut Criterion) {
+    let mut group = c.benchmark_group("dab_to_coefficients");
+    for k in [10usize, 20, 40] {
+        let (mut table, mut solver) = painted(k);
+        let mut changes = Vec::new();
+        for pixels in [50u32, 500, 5000] {
+            let mut stroke = 0u32;
+            group.bench_with_input(
+                BenchmarkId::new(format!("k{k}"), pixels),
+                &pixels,
+                |b, &pixels| {
+                    b.iter(|| {
+                        stroke += 1;
+                        let value = 0.1 + 0.05 * (stroke % 7) as f64;
+                        for i in 0..pixels {
+                            let pixel = (stroke * pixels + i) % 20_000;
+                            let (d_l, d_v) = pixel_bins(pixel);
+                            let key = SampleKey { view: 0, pixel };
+                            table
+                                .set_sample(
+                                    key,
+                                    d_l,
+                                    d_v,
+                                    [value, value, 0.5 * value],
+                                    &mut changes,
+                                )
+                                .unwrap();
+                        }
+                        solver.apply_all(&changes);
+                        changes.clear();
+                        black_box(solver.solve())
+                    })
+                },
+            );
+        }
+    }
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(30).measurement_time(Duration::from_secs(4));
-    targets = engine
+    targets = engine, dab_scaling
 }
 criterion_main!(benches);

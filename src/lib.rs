@@ -8,6 +8,7 @@
 // clearer there than zipped iterators.
 #![allow(clippy::needless_range_loop)]
 
+#[cfg(feature = "app")]
 pub mod app;
 pub mod basis;
 pub mod bench;
@@ -19,6 +20,7 @@ pub mod inspect;
 pub mod materials;
 pub mod metrics;
 pub mod paint;
+#[cfg(feature = "app")]
 pub mod preview;
 pub mod scene;
 pub mod session;

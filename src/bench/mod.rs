@@ -1,1 +1,653 @@
 //! `burnish bench`: run time against error, and the live-loop timings.
+//!
+//! Held-out materials are rendered as a perfect painter would paint them (each pixel at its
+//! exact directions, [`render_brdf`]), turned into samples exactly as a painting is, and
+//! reconstructed under a sweep of configurations around the paper's (K = 20, default prior,
+//! mean policy, one view; here at the scene default 512² with HDR paint). Each axis of the
+//! sweep (K, regularisation, views, guide resolution, LDR/HDR paint, sample policy) is varied
+//! alone from that configuration. Every reconstruction is scored with `burnish eval`'s metrics
+//! against the tabulated truth, next to the oracle (the truth projected onto the basis) and an
+//! analytic Lambert + anisotropic GGX fit of the same samples.
+
+pub mod analytic_fit;
+pub mod held_out;
+pub mod live;
+pub mod oracle;
+pub mod plot;
+pub mod report;
+pub mod stability;
+
+use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
+use crate::cli::eval_cmd::evaluate;
+use crate::error::Result;
+use crate::image_io::RgbImage;
+use crate::materials::tabulate;
+use crate::scene::{
+    CameraSettings, GBuffer, LightSettings, Object, SampleCounts, SampleSet, Scene, render_brdf,
+    samples_from_image, srgb_decode, srgb_encode,
+};
+use crate::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
+use crate::table::SymTable;
+use analytic_fit::{FitOptions, fit_lambert_ggx};
+use held_out::HeldOut;
+use oracle::OracleProjector;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+pub use live::LiveLoop;
+pub use report::{Aggregate, BenchReport, Machine};
+
+/// How a painting's values reach the samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Paint {
+    /// Linear floats, unclipped (an EXR painting).
+    Hdr,
+    /// sRGB-encoded 8-bit, clipped at 1 (a PNG painting), then decoded.
+    Ldr,
+}
+
+impl Paint {
+    pub fn name(self) -> &'static str {
+        match self {
+            Paint::Hdr => "hdr",
+            Paint::Ldr => "ldr",
+        }
+    }
+}
+
+/// One light and camera of the views a painting session uses. View 0 is the SCENE.md default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewSetup {
+    pub light_elevation_deg: f64,
+    pub light_azimuth_deg: f64,
+    pub camera_yaw_deg: f64,
+    pub camera_pitch_deg: f64,
+}
+
+/// The views, in the order they are added: 1 view uses the first, 2 the first two, …
+pub const VIEWS: [ViewSetup; 4] = [
+    ViewSetup {
+        light_elevation_deg: 45.0,
+        light_azimuth_deg: 30.0,
+        camera_yaw_deg: 0.0,
+        camera_pitch_deg: 0.0,
+    },
+    ViewSetup {
+        light_elevation_deg: 20.0,
+        light_azimuth_deg: -60.0,
+        camera_yaw_deg: 0.0,
+        camera_pitch_deg: 0.0,
+    },
+    ViewSetup {
+        light_elevation_deg: 70.0,
+        light_azimuth_deg: 150.0,
+        camera_yaw_deg: 30.0,
+        camera_pitch_deg: 20.0,
+    },
+    ViewSetup {
+        light_elevation_deg: 10.0,
+        light_azimuth_deg: 100.0,
+        camera_yaw_deg: -40.0,
+        camera_pitch_deg: -15.0,
+    },
+];
+
+impl ViewSetup {
+    /// The scene of this view: the default sphere with this light and camera.
+    pub fn scene(&self, resolution: u32) -> Scene {
+        Scene {
+            resolution,
+            light: LightSettings {
+                elevation_deg: self.light_elevation_deg,
+                azimuth_deg: self.light_azimuth_deg,
+            },
+            camera: CameraSettings {
+                yaw_deg: self.camera_yaw_deg,
+                pitch_deg: self.camera_pitch_deg,
+                ..CameraSettings::default()
+            },
+            ..Scene::default()
+        }
+    }
+}
+
+/// A sparse reconstruction's configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Config {
+    pub components: usize,
+    pub regularization: Regularization,
+    pub views: usize,
+    pub resolution: u32,
+    pub paint: Paint,
+    pub policy: Policy,
+}
+
+impl Config {
+    /// The paper's configuration (K = 20, mean, one view), at the scene default resolution
+    /// with HDR paint and the default prior.
+    pub fn paper() -> Self {
+        Self {
+            components: 20,
+            regularization: Regularization::Auto,
+            views: 1,
+            resolution: 512,
+            paint: Paint::Hdr,
+            policy: Policy::Mean,
+        }
+    }
+
+    /// A short stable label, e.g. `K20 auto 1v 512 hdr mean`.
+    pub fn label(&self) -> String {
+        format!(
+            "K{} {} {}v {} {} {}",
+            self.components,
+            regularization_name(self.regularization),
+            self.views,
+            self.resolution,
+            self.paint.name(),
+            policy_name(self.policy)
+        )
+    }
+
+    fn samples_key(&self) -> SamplesKey {
+        (self.views, self.resolution, self.paint)
+    }
+}
+
+/// `auto`, `gcv`, `prior:α` or `ridge:λ`, as `--lambda` takes them.
+pub fn regularization_name(r: Regularization) -> String {
+    match r {
+        Regularization::Auto => "auto".into(),
+        Regularization::Gcv => "gcv".into(),
+        Regularization::Prior { alpha } => format!("prior:{alpha}"),
+        Regularization::Ridge { lambda } => format!("ridge:{lambda}"),
+    }
+}
+
+pub fn policy_name(p: Policy) -> &'static str {
+    match p {
+        Policy::Mean => "mean",
+        Policy::Min => "min",
+        Policy::Max => "max",
+    }
+}
+
+/// What produced a table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Method {
+    /// The sparse solver from painted samples.
+    Sparse(Config),
+    /// The truth projected onto the K-component basis.
+    Oracle { components: usize },
+    /// Lambert + anisotropic GGX fitted by Levenberg–Marquardt to the samples of `views`.
+    Analytic {
+        views: usize,
+        resolution: u32,
+        paint: Paint,
+    },
+}
+
+impl Method {
+    pub fn label(&self) -> String {
+        match self {
+            Method::Sparse(c) => c.label(),
+            Method::Oracle { components } => format!("oracle K{components}"),
+            Method::Analytic {
+                views,
+                resolution,
+                paint,
+            } => format!("analytic {views}v {resolution} {}", paint.name()),
+        }
+    }
+
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Method::Sparse(_) => "sparse",
+            Method::Oracle { .. } => "oracle",
+            Method::Analytic { .. } => "analytic",
+        }
+    }
+}
+
+/// One method on one material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub method: Method,
+    /// Which sweep axis this row varies from the paper's configuration ("paper" for it).
+    pub axis: &'static str,
+    pub material: String,
+    pub family: &'static str,
+    pub lambert_ggx: bool,
+    pub relative_rmse: f64,
+    pub log_rmse: f64,
+    pub median_psnr_db: f64,
+    /// Samples to full table: sample extraction, binning, solve (or fit) and materialisation.
+    pub time_ms: f64,
+    pub samples_used: usize,
+    pub observed_bins: usize,
+    /// Pixels of the paintings, by what became of them.
+    pub counts: SampleCounts,
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// "quick" or "full": named in the outputs.
+    pub mode: &'static str,
+    /// Where bases are cached (and built into when missing).
+    pub cache: BasisCache,
+    /// Materials of the basis database (its seed is the default one).
+    pub basis_materials: usize,
+    /// Held-out database materials (from [`held_out::HELD_OUT_SEED`]).
+    pub database_materials: usize,
+    /// Hand-built materials (at most [`held_out::HAND_BUILT`]).
+    pub hand_built: usize,
+    /// The centre of the sweep.
+    pub paper: Config,
+    pub components: Vec<usize>,
+    pub regularizations: Vec<Regularization>,
+    pub view_counts: Vec<usize>,
+    pub resolutions: Vec<u32>,
+    pub paints: Vec<Paint>,
+    pub policies: Vec<Policy>,
+    /// View counts the analytic fit is run on (at the paper's resolution and paint).
+    pub analytic_views: Vec<usize>,
+    pub fit: FitOptions,
+    pub live: live::LiveOptions,
+}
+
+impl BenchOptions {
+    /// The full sweep of the issue.
+    pub fn full(cache: BasisCache) -> Self {
+        Self {
+            mode: "full",
+            cache,
+            basis_materials: crate::materials::database::DatabaseSpec::default().size,
+            database_materials: 20,
+            hand_built: held_out::HAND_BUILT,
+            paper: Config::paper(),
+            components: vec![5, 10, 20, 40, 80],
+            regularizations: vec![
+                Regularization::Auto,
+                Regularization::Gcv,
+                Regularization::Prior { alpha: 0.3 },
+                Regularization::Prior { alpha: 30.0 },
+                Regularization::Ridge { lambda: 0.01 },
+            ],
+            view_counts: vec![1, 2, 4],
+            resolutions: vec![256, 512, 1024],
+            paints: vec![Paint::Hdr, Paint::Ldr],
+            policies: vec![Policy::Mean, Policy::Min, Policy::Max],
+            analytic_views: vec![1, 4],
+            fit: FitOptions::default(),
+            live: live::LiveOptions::full(),
+        }
+    }
+
+    /// Under five minutes on two cores with a cold cache: the default basis (K = 20) only,
+    /// eight held-out materials, the paper's configuration, two views and LDR paint.
+    pub fn quick(cache: BasisCache) -> Self {
+        Self {
+            mode: "quick",
+            database_materials: 6,
+            hand_built: 2,
+            components: vec![20],
+            regularizations: vec![Regularization::Auto],
+            view_counts: vec![1, 2],
+            resolutions: vec![512],
+            paints: vec![Paint::Hdr, Paint::Ldr],
+            policies: vec![Policy::Mean],
+            analytic_views: vec![1],
+            live: live::LiveOptions::quick(),
+            ..Self::full(cache)
+        }
+    }
+
+    /// Every sparse configuration and the sweep axis it belongs to, the paper's first.
+    pub fn sparse_configs(&self) -> Vec<(&'static str, Config)> {
+        let p = self.paper;
+        let mut out = vec![("paper", p)];
+        let mut add = |axis: &'static str, c: Config| {
+            if c != p {
+                out.push((axis, c));
+            }
+        };
+        for &components in &self.components {
+            add("K", Config { components, ..p });
+        }
+        for &regularization in &self.regularizations {
+            add(
+                "regularisation",
+                Config {
+                    regularization,
+                    ..p
+                },
+            );
+        }
+        for &views in &self.view_counts {
+            add("views", Config { views, ..p });
+        }
+        for &resolution in &self.resolutions {
+            add("resolution", Config { resolution, ..p });
+        }
+        for &paint in &self.paints {
+            add("paint", Config { paint, ..p });
+        }
+        for &policy in &self.policies {
+            add("policy", Config { policy, ..p });
+        }
+        out
+    }
+
+    fn basis_spec(&self, components: usize) -> BasisSpec {
+        let mut spec = BasisSpec::default_for(components);
+        spec.database.size = self.basis_materials;
+        spec
+    }
+}
+
+/// (views, resolution, paint): what fixes a set of samples.
+type SamplesKey = (usize, u32, Paint);
+
+/// Bases by K, loaded or built once, with how each came.
+pub(crate) struct Bases<'a> {
+    options: &'a BenchOptions,
+    loaded: BTreeMap<usize, Arc<Basis>>,
+    /// (K, outcome, seconds) for every basis this run loaded or built.
+    pub(crate) history: Vec<(usize, String, f64)>,
+}
+
+impl<'a> Bases<'a> {
+    fn new(options: &'a BenchOptions) -> Self {
+        Self {
+            options,
+            loaded: BTreeMap::new(),
+            history: Vec::new(),
+        }
+    }
+
+    pub(crate) fn get(&mut self, components: usize, log: &dyn Fn(&str)) -> Result<Arc<Basis>> {
+        if let Some(b) = self.loaded.get(&components) {
+            return Ok(b.clone());
+        }
+        let spec = self.options.basis_spec(components);
+        let start = Instant::now();
+        let (basis, outcome) = self.options.cache.load_or_build(&spec, false, &|_| {})?;
+        let seconds = start.elapsed().as_secs_f64();
+        let how = match outcome {
+            CacheOutcome::Loaded => "loaded".to_string(),
+            CacheOutcome::Built => "built".to_string(),
+            CacheOutcome::Rebuilt { reason } => format!("rebuilt ({reason})"),
+        };
+        log(&format!(
+            "basis K = {components} ({} materials): {how} in {seconds:.1} s",
+            spec.database.size
+        ));
+        self.history.push((components, how, seconds));
+        self.loaded.insert(components, basis.clone());
+        Ok(basis)
+    }
+}
+
+/// Geometry buffers by (view, resolution), built once.
+#[derive(Default)]
+pub(crate) struct Geometry {
+    buffers: BTreeMap<(usize, u32), Arc<GBuffer>>,
+}
+
+impl Geometry {
+    pub(crate) fn get(&mut self, view: usize, resolution: u32) -> Arc<GBuffer> {
+        self.buffers
+            .entry((view, resolution))
+            .or_insert_with(|| {
+                let scene = VIEWS[view].scene(resolution);
+                let object = Object::load(&scene.object_source())
+                    .expect("the built-in sphere needs no file");
+                Arc::new(GBuffer::build(&scene, &object))
+            })
+            .clone()
+    }
+}
+
+/// An 8-bit sRGB painting, clipped at 1, decoded back to linear: what a PNG holds.
+pub fn ldr_round_trip(image: &RgbImage) -> RgbImage {
+    let decode: Vec<f32> = (0..=255u8).map(|v| srgb_decode(v as f32 / 255.0)).collect();
+    RgbImage {
+        width: image.width,
+        height: image.height,
+        pixels: image
+            .pixels
+            .iter()
+            .map(|rgb| rgb.map(|c| decode[(srgb_encode(c) * 255.0).round() as usize]))
+            .collect(),
+    }
+}
+
+/// The samples of one material under one (views, resolution, paint), and what they cost.
+struct PaintedViews {
+    sets: Vec<SampleSet>,
+    /// Sample extraction time, all views.
+    samples_ms: f64,
+}
+
+impl PaintedViews {
+    fn counts(&self) -> SampleCounts {
+        let mut total = SampleCounts::default();
+        for s in &self.sets {
+            total.used += s.counts.used;
+            total.background += s.counts.background;
+            total.shadow += s.counts.shadow;
+            total.grazing += s.counts.grazing;
+            total.invalid += s.counts.invalid;
+        }
+        total
+    }
+
+    /// The sparse table of these samples under `policy`, and the bin changes that built it.
+    fn sparse_table(&self, policy: Policy) -> (SparseTable, Vec<crate::solver::BinChange>) {
+        let mut table = SparseTable::new(policy);
+        let mut changes = Vec::new();
+        for (view, set) in self.sets.iter().enumerate() {
+            for s in &set.samples {
+                let key = SampleKey {
+                    view: view as u32,
+                    pixel: s.pixel,
+                };
+                table
+                    .set_sample(key, s.light_bin, s.view_bin, s.rho, &mut changes)
+                    .expect("samples from an image are finite and non-negative");
+            }
+        }
+        (table, changes)
+    }
+}
+
+fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// Runs the benchmark; `log` gets one line per step (for stderr).
+pub fn run_bench(options: &BenchOptions, log: &dyn Fn(&str)) -> Result<BenchReport> {
+    let started = Instant::now();
+    let machine_before = Machine::probe();
+    let mut bases = Bases::new(options);
+    let mut geometry = Geometry::default();
+    let configs = options.sparse_configs();
+    let mut oracle_ks: Vec<usize> = options.components.clone();
+    if !oracle_ks.contains(&options.paper.components) {
+        oracle_ks.push(options.paper.components);
+    }
+    oracle_ks.sort_unstable();
+    // Bases first: a cold build is the long part and is reported on its own.
+    let mut projectors = BTreeMap::new();
+    for &k in &oracle_ks {
+        let basis = bases.get(k, log)?;
+        projectors.insert(k, OracleProjector::new(basis));
+    }
+
+    let mut materials = held_out::database_materials(options.database_materials);
+    materials.extend(held_out::hand_built_materials(options.hand_built));
+    let mut keys: Vec<SamplesKey> = configs.iter().map(|(_, c)| c.samples_key()).collect();
+    let p = options.paper;
+    keys.extend(
+        options
+            .analytic_views
+            .iter()
+            .map(|&v| (v, p.resolution, p.paint)),
+    );
+    keys.sort_unstable();
+    keys.dedup();
+
+    let mut rows = Vec::new();
+    for (i, m) in materials.iter().enumerate() {
+        let material_start = Instant::now();
+        let truth = tabulate(&*m.brdf);
+        let mut renders: BTreeMap<(usize, u32), RgbImage> = BTreeMap::new();
+        for &key in &keys {
+            let (views, resolution, paint) = key;
+            let mut sets = Vec::with_capacity(views);
+            let mut samples_ms = 0.0;
+            for view in 0..views {
+                let gbuffer = geometry.get(view, resolution);
+                let render = renders
+                    .entry((view, resolution))
+                    .or_insert_with(|| render_brdf(&gbuffer, &*m.brdf));
+                let painting = match paint {
+                    Paint::Hdr => render.clone(),
+                    Paint::Ldr => ldr_round_trip(render),
+                };
+                let start = Instant::now();
+                sets.push(samples_from_image(&gbuffer, &painting));
+                samples_ms += ms_since(start);
+            }
+            let painted = PaintedViews { sets, samples_ms };
+            for &(axis, config) in configs.iter().filter(|(_, c)| c.samples_key() == key) {
+                let basis = bases.get(config.components, log)?;
+                rows.push(sparse_row(m, &truth, &painted, basis, axis, config));
+            }
+            if resolution == p.resolution
+                && paint == p.paint
+                && options.analytic_views.contains(&views)
+            {
+                rows.push(analytic_row(m, &truth, &painted, key, &options.fit));
+            }
+        }
+        for (&k, projector) in &projectors {
+            rows.push(oracle_row(m, &truth, projector, k));
+        }
+        log(&format!(
+            "material {}/{} {}: {:.1} s",
+            i + 1,
+            materials.len(),
+            m.name,
+            material_start.elapsed().as_secs_f64()
+        ));
+    }
+
+    let live = live::measure(options, &mut bases, &mut geometry, &materials, log)?;
+    log("stability probe");
+    let stability = stability::probe(
+        &bases.get(options.paper.components, log)?,
+        &geometry.get(0, options.paper.resolution),
+    );
+    let basis_history = bases.history.clone();
+    Ok(BenchReport::new(
+        options,
+        machine_before,
+        rows,
+        live,
+        stability,
+        basis_history,
+        started.elapsed().as_secs_f64(),
+    ))
+}
+
+fn sparse_row(
+    m: &HeldOut,
+    truth: &SymTable,
+    painted: &PaintedViews,
+    basis: Arc<Basis>,
+    axis: &'static str,
+    config: Config,
+) -> Row {
+    let start = Instant::now();
+    let (table, changes) = painted.sparse_table(config.policy);
+    let mut solver = Solver::new(basis.clone(), config.regularization);
+    solver.apply_all(&changes);
+    let solution = solver.solve();
+    let estimate = Reconstruction::new(basis, &solution.coefficients).materialize();
+    let time_ms = painted.samples_ms + ms_since(start);
+    let e = evaluate(truth, &estimate);
+    Row {
+        method: Method::Sparse(config),
+        axis,
+        material: m.name.clone(),
+        family: m.family,
+        lambert_ggx: m.lambert_ggx,
+        relative_rmse: e.relative_rmse,
+        log_rmse: e.log_rmse,
+        median_psnr_db: e.median_psnr_db,
+        time_ms,
+        samples_used: table.sample_count(),
+        observed_bins: table.observed_count(),
+        counts: painted.counts(),
+    }
+}
+
+fn analytic_row(
+    m: &HeldOut,
+    truth: &SymTable,
+    painted: &PaintedViews,
+    key: SamplesKey,
+    fit: &FitOptions,
+) -> Row {
+    let (views, resolution, paint) = key;
+    let start = Instant::now();
+    let (table, _) = painted.sparse_table(Policy::Mean);
+    let bins: Vec<(u32, [f64; 3])> = table.observed().collect();
+    let result = fit_lambert_ggx(&bins, fit);
+    let estimate = tabulate(&result.model);
+    let time_ms = painted.samples_ms + ms_since(start);
+    let e = evaluate(truth, &estimate);
+    Row {
+        method: Method::Analytic {
+            views,
+            resolution,
+            paint,
+        },
+        axis: "analytic",
+        material: m.name.clone(),
+        family: m.family,
+        lambert_ggx: m.lambert_ggx,
+        relative_rmse: e.relative_rmse,
+        log_rmse: e.log_rmse,
+        median_psnr_db: e.median_psnr_db,
+        time_ms,
+        samples_used: table.sample_count(),
+        observed_bins: bins.len(),
+        counts: painted.counts(),
+    }
+}
+
+fn oracle_row(m: &HeldOut, truth: &SymTable, projector: &OracleProjector, k: usize) -> Row {
+    let start = Instant::now();
+    let x = projector.project(truth);
+    let estimate = Reconstruction::new(projector.basis().clone(), &x).materialize();
+    let time_ms = ms_since(start);
+    let e = evaluate(truth, &estimate);
+    Row {
+        method: Method::Oracle { components: k },
+        axis: "oracle",
+        material: m.name.clone(),
+        family: m.family,
+        lambert_ggx: m.lambert_ggx,
+        relative_rmse: e.relative_rmse,
+        log_rmse: e.log_rmse,
+        median_psnr_db: e.median_psnr_db,
+        time_ms,
+        samples_used: 0,
+        observed_bins: crate::table::PAIRS,
+        counts: SampleCounts::default(),
+    }
+}

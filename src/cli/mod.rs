@@ -1,7 +1,9 @@
 //! The command line: each verb drives the engine the way a script or a test would.
 
+#[cfg(feature = "app")]
 mod app_cmd;
 mod basis_cmd;
+pub mod bench_cmd;
 pub mod eval_cmd;
 mod reconstruct_cmd;
 mod scene_cmds;
@@ -34,7 +36,10 @@ pub enum Command {
     /// Build (or load from the cache) the PCA basis of the material database.
     Basis(basis_cmd::BasisArgs),
     /// Open the painting app (what `burnish` with no verb does).
+    #[cfg(feature = "app")]
     App(app_cmd::AppArgs),
+    /// Benchmark: reconstruction error against run time, and the live loop's timings.
+    Bench(bench_cmd::BenchArgs),
 }
 
 /// Runs the command line; errors are printed with the file and the problem, exit code 1.
@@ -46,8 +51,16 @@ pub fn run() -> ExitCode {
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
         Some(Command::Basis(args)) => basis_cmd::run(&args),
+        #[cfg(feature = "app")]
         Some(Command::App(args)) => app_cmd::run(&args),
+        Some(Command::Bench(args)) => bench_cmd::run(&args),
+        #[cfg(feature = "app")]
         None => app_cmd::run(&app_cmd::AppArgs::default()),
+        // Built without the window: list the verbs.
+        #[cfg(not(feature = "app"))]
+        None => <Cli as clap::CommandFactory>::command()
+            .print_help()
+            .map_err(Into::into),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -83,13 +83,18 @@ impl Bin {
     fn aggregate(&self, policy: Policy) -> [f64; 3] {
         match policy {
             Policy::Mean => {
+                // Pre-divided terms cannot overflow where the samples near f64::MAX; the mean
+                // never exceeds the largest sample, which also bounds the sum's rounding.
+                let n = self.samples.len() as f64;
                 let mut sum = [0.0f64; 3];
+                let mut largest = [0.0f64; 3];
                 for (_, v) in &self.samples {
                     for c in 0..3 {
-                        sum[c] += v[c];
+                        sum[c] += v[c] / n;
+                        largest[c] = largest[c].max(v[c]);
                     }
                 }
-                sum.map(|s| s / self.samples.len() as f64)
+                std::array::from_fn(|c| sum[c].min(largest[c]))
             }
             Policy::Min => self.pick(|a, b| a < b),
             Policy::Max => self.pick(|a, b| a > b),
@@ -219,6 +224,8 @@ impl SparseTable {
         if rho.iter().any(|&c| c < 0.0) {
             return Err(SampleRejected::Negative);
         }
+        // −0 is a valid zero; store +0 so no table ever carries a negative sign.
+        let rho = rho.map(|c| if c == 0.0 { 0.0 } else { c });
         let pair = pair_index(d_l, d_v) as u32;
         match self.sample_bins.insert(key, pair) {
             Some(old_pair) if old_pair != pair => {

@@ -1,0 +1,416 @@
+//! The analytic baseline: Lambert plus anisotropic GGX fitted by Levenberg–Marquardt to the
+//! same binned samples the sparse solver sees, as tools like BRDFLab fit analytic models.
+//!
+//! The residual of a bin is ln((ρ̂c + ε)/(ρc + ε)) per channel, weighted by the bin's pair
+//! multiplicity: the log-mapped domain and weights the basis and its solver use, so both
+//! methods minimise the same kind of error. Bounds come from the parametrisation (logistic
+//! albedo and F0, logistic log-roughness), so the optimiser itself is unconstrained. Several
+//! starts run a few iterations each; the best ones are run to convergence.
+
+use crate::basis::{MAP_EPSILON, cos_weight};
+use crate::materials::Brdf;
+use crate::materials::models::{Distribution, Fresnel, Lambert, Microfacet};
+use crate::table::{bin_centre, pair_directions, pair_multiplicity};
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use glam::DVec3;
+use rayon::prelude::*;
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+
+/// Lambertian albedo plus an anisotropic GGX lobe with Schlick Fresnel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LambertGgx {
+    /// Diffuse albedo per channel (ρ_d = albedo/π).
+    pub albedo: [f64; 3],
+    /// Specular reflectance at normal incidence per channel.
+    pub f0: [f64; 3],
+    /// GGX roughness along the rotated tangent.
+    pub alpha_x: f64,
+    /// GGX roughness along the rotated bitangent.
+    pub alpha_y: f64,
+    /// Angle (radians) the anisotropy axes are turned about the normal.
+    pub rotation: f64,
+}
+
+impl LambertGgx {
+    fn parts(&self) -> (Lambert, Microfacet) {
+        (
+            Lambert {
+                albedo: self.albedo,
+            },
+            Microfacet {
+                distribution: Distribution::Ggx,
+                alpha_x: self.alpha_x,
+                alpha_y: self.alpha_y,
+                rotation: self.rotation,
+                fresnel: Fresnel::Schlick { f0: self.f0 },
+                tint: [1.0; 3],
+            },
+        )
+    }
+}
+
+impl Brdf for LambertGgx {
+    fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
+        let (diffuse, specular) = self.parts();
+        let (d, s) = (diffuse.eval(l, v), specular.eval(l, v));
+        [d[0] + s[0], d[1] + s[1], d[2] + s[2]]
+    }
+    fn is_isotropic(&self) -> bool {
+        self.alpha_x == self.alpha_y
+    }
+}
+
+/// Roughness bounds: below 0.01 a lobe is narrower than the 2° bins can show.
+const ALPHA_MIN: f64 = 0.01;
+const ALPHA_MAX: f64 = 1.5;
+/// Parameters: three albedo logits, three F0 logits, two log-roughness logits, rotation.
+const P: usize = 9;
+
+fn logistic(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+fn logit(p: f64) -> f64 {
+    let p = p.clamp(1e-6, 1.0 - 1e-6);
+    (p / (1.0 - p)).ln()
+}
+
+fn alpha_of(s: f64) -> f64 {
+    // exp(ln) can round a hair past either end; the bounds are the model's.
+    (ALPHA_MIN.ln() + (ALPHA_MAX / ALPHA_MIN).ln() * logistic(s))
+        .exp()
+        .clamp(ALPHA_MIN, ALPHA_MAX)
+}
+
+fn alpha_param(alpha: f64) -> f64 {
+    logit((alpha.ln() - ALPHA_MIN.ln()) / (ALPHA_MAX / ALPHA_MIN).ln())
+}
+
+fn model_of(theta: &[f64; P]) -> LambertGgx {
+    LambertGgx {
+        albedo: [0, 1, 2].map(|c| logistic(theta[c])),
+        f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
+        alpha_x: alpha_of(theta[6]),
+        alpha_y: alpha_of(theta[7]),
+        rotation: theta[8],
+    }
+}
+
+fn params_of(model: &LambertGgx) -> [f64; P] {
+    let mut theta = [0.0; P];
+    for c in 0..3 {
+        theta[c] = logit(model.albedo[c]);
+        theta[3 + c] = logit(model.f0[c]);
+    }
+    theta[6] = alpha_param(model.alpha_x);
+    theta[7] = alpha_param(model.alpha_y);
+    theta[8] = model.rotation;
+    theta
+}
+
+/// One observed bin, ready for the fit.
+#[derive(Clone, Copy, Debug)]
+struct Observation {
+    l: DVec3,
+    v: DVec3,
+    /// ln(ρc + ε) of the observed value, per channel.
+    target: [f64; 3],
+    c: f64,
+    sqrt_weight: f64,
+}
+
+/// How hard the fit tries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitOptions {
+    /// Iterations every start gets before the best are chosen.
+    pub scout_iterations: usize,
+    /// How many of the best starts are run to convergence.
+    pub finalists: usize,
+    /// Iteration cap of a finalist.
+    pub max_iterations: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            scout_iterations: 8,
+            finalists: 2,
+            max_iterations: 80,
+        }
+    }
+}
+
+/// The fitted model and how the fit went.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitResult {
+    pub model: LambertGgx,
+    /// RMS of the weighted log residuals at the optimum.
+    pub rms_log_residual: f64,
+    /// Starts tried.
+    pub starts: usize,
+    /// LM iterations run over all starts.
+    pub iterations: usize,
+}
+
+/// Fits Lambert + anisotropic GGX to observed bins `(pair, ρ)` (as [`crate::solver::SparseTable::observed`]
+/// gives them). With no observation it returns a mid-grey diffuse model.
+pub fn fit_lambert_ggx(bins: &[(u32, [f64; 3])], options: &FitOptions) -> FitResult {
+    let observations: Vec<Observation> = bins
+        .iter()
+        .map(|&(pair, rho)| {
+            let (lo, hi) = pair_directions(pair as usize);
+            let c = cos_weight(pair as usize);
+            Observation {
+                l: bin_centre(lo),
+                v: bin_centre(hi),
+                target: rho.map(|r| (r.max(0.0) * c + MAP_EPSILON).ln()),
+                c,
+                sqrt_weight: pair_multiplicity(pair as usize).sqrt(),
+            }
+        })
+        .collect();
+    let starts = starting_points(bins);
+    if observations.is_empty() {
+        return FitResult {
+            model: model_of(&starts[0]),
+            rms_log_residual: 0.0,
+            starts: 0,
+            iterations: 0,
+        };
+    }
+    let mut iterations = 0;
+    let mut scouted: Vec<([f64; P], f64)> = starts
+        .iter()
+        .map(|start| {
+            let (theta, cost, it) =
+                levenberg_marquardt(&observations, *start, options.scout_iterations);
+            iterations += it;
+            (theta, cost)
+        })
+        .collect();
+    scouted.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (mut best, mut best_cost) = (scouted[0].0, scouted[0].1);
+    for &(theta, _) in scouted.iter().take(options.finalists.max(1)) {
+        let (theta, cost, it) = levenberg_marquardt(&observations, theta, options.max_iterations);
+        iterations += it;
+        if cost < best_cost {
+            (best, best_cost) = (theta, cost);
+        }
+    }
+    let residuals = 3.0 * observations.len() as f64;
+    FitResult {
+        model: model_of(&best),
+        rms_log_residual: (2.0 * best_cost / residuals).sqrt(),
+        starts: starts.len(),
+        iterations,
+    }
+}
+
+/// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,
+/// four isotropic roughnesses and anisotropic ones at four orientations.
+fn starting_points(bins: &[(u32, [f64; 3])]) -> Vec<[f64; P]> {
+    let albedo: [f64; 3] = std::array::from_fn(|c| {
+        let mut v: Vec<f64> = bins
+            .iter()
+            .map(|(_, rho)| rho[c] * std::f64::consts::PI)
+            .collect();
+        if v.is_empty() {
+            return 0.5;
+        }
+        let i = v.len() / 5;
+        let (_, low, _) = v.select_nth_unstable_by(i, f64::total_cmp);
+        low.clamp(0.01, 0.95)
+    });
+    let mut starts = Vec::new();
+    for f0 in [0.04, 0.6] {
+        let albedo = if f0 > 0.5 {
+            albedo.map(|a| 0.2 * a)
+        } else {
+            albedo
+        };
+        for alpha in [0.03, 0.1, 0.3, 0.7] {
+            starts.push(params_of(&LambertGgx {
+                albedo: albedo.map(|a| a.max(0.01)),
+                f0: [f0; 3],
+                alpha_x: alpha,
+                alpha_y: alpha,
+                rotation: 0.0,
+            }));
+        }
+    }
+    for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
+        starts.push(params_of(&LambertGgx {
+            albedo,
+            f0: [0.04; 3],
+            alpha_x: 0.05,
+            alpha_y: 0.3,
+            rotation,
+        }));
+    }
+    starts
+}
+
+/// Bins per deterministic partial sum.
+const CHUNK: usize = 512;
+
+/// Weighted log residuals of one observation under `model`.
+#[inline]
+fn residuals(model: &LambertGgx, o: &Observation) -> [f64; 3] {
+    let rho = model.eval(o.l, o.v);
+    std::array::from_fn(|ch| o.sqrt_weight * ((rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch]))
+}
+
+/// ½‖r‖² at `theta`.
+fn cost(observations: &[Observation], theta: &[f64; P]) -> f64 {
+    let model = model_of(theta);
+    let partials: Vec<f64> = observations
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            chunk
+                .iter()
+                .map(|o| residuals(&model, o).iter().map(|r| r * r).sum::<f64>())
+                .sum()
+        })
+        .collect();
+    0.5 * partials.iter().sum::<f64>()
+}
+
+/// JᵀJ, Jᵀr and ½‖r‖² at `theta`, with a forward-difference Jacobian, summed in chunk order.
+fn normal_equations(
+    observations: &[Observation],
+    theta: &[f64; P],
+) -> ([f64; P * P], [f64; P], f64) {
+    const STEP: f64 = 1e-6;
+    let base = model_of(theta);
+    let perturbed: Vec<(LambertGgx, f64)> = (0..P)
+        .map(|j| {
+            let mut t = *theta;
+            let h = STEP * theta[j].abs().max(1.0);
+            t[j] += h;
+            (model_of(&t), t[j] - theta[j])
+        })
+        .collect();
+    let partials: Vec<([f64; P * P], [f64; P], f64)> = observations
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut jtj = [0.0; P * P];
+            let mut jtr = [0.0; P];
+            let mut sum = 0.0;
+            for o in chunk {
+                let r = residuals(&base, o);
+                let mut jac = [[0.0; P]; 3];
+                for (j, (model, h)) in perturbed.iter().enumerate() {
+                    let rp = residuals(model, o);
+                    for ch in 0..3 {
+                        jac[ch][j] = (rp[ch] - r[ch]) / h;
+                    }
+                }
+                for ch in 0..3 {
+                    sum += r[ch] * r[ch];
+                    for a in 0..P {
+                        jtr[a] += jac[ch][a] * r[ch];
+                        for b in a..P {
+                            jtj[a * P + b] += jac[ch][a] * jac[ch][b];
+                        }
+                    }
+                }
+            }
+            (jtj, jtr, sum)
+        })
+        .collect();
+    let mut jtj = [0.0; P * P];
+    let mut jtr = [0.0; P];
+    let mut sum = 0.0;
+    for (a, b, s) in &partials {
+        for i in 0..P * P {
+            jtj[i] += a[i];
+        }
+        for i in 0..P {
+            jtr[i] += b[i];
+        }
+        sum += s;
+    }
+    for a in 0..P {
+        for b in 0..a {
+            jtj[a * P + b] = jtj[b * P + a];
+        }
+    }
+    (jtj, jtr, 0.5 * sum)
+}
+
+/// Solves (JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr; `None` when the damped matrix is not positive definite.
+fn damped_step(jtj: &[f64; P * P], jtr: &[f64; P], lambda: f64) -> Option<[f64; P]> {
+    let mut m = Mat::<f64>::from_fn(P, P, |i, j| jtj[i * P + j]);
+    for i in 0..P {
+        m[(i, i)] += lambda * jtj[i * P + i].max(1e-12);
+    }
+    let mut x = Mat::<f64>::from_fn(P, 1, |i, _| -jtr[i]);
+    m.llt(Side::Lower).ok()?.solve_in_place(x.as_mut());
+    let step: [f64; P] = std::array::from_fn(|i| x[(i, 0)]);
+    step.iter().all(|v| v.is_finite()).then_some(step)
+}
+
+/// Runs at most `max_iterations` LM iterations from `theta`; returns the parameters, their
+/// cost and the iterations run.
+fn levenberg_marquardt(
+    observations: &[Observation],
+    mut theta: [f64; P],
+    max_iterations: usize,
+) -> ([f64; P], f64, usize) {
+    let mut lambda = 1e-3;
+    let (mut jtj, mut jtr, mut current) = normal_equations(observations, &theta);
+    let mut iterations = 0;
+    while iterations < max_iterations {
+        iterations += 1;
+        let mut accepted = false;
+        // Raise the damping until a step lowers the cost (or the damping is hopeless).
+        while lambda < 1e10 {
+            if let Some(step) = damped_step(&jtj, &jtr, lambda) {
+                let trial: [f64; P] = std::array::from_fn(|i| theta[i] + step[i]);
+                let trial_cost = cost(observations, &trial);
+                if trial_cost.is_finite() && trial_cost < current {
+                    let gain = (current - trial_cost) / current.max(f64::MIN_POSITIVE);
+                    theta = trial;
+                    lambda = (lambda / 3.0).max(1e-9);
+                    accepted = true;
+                    if gain < 1e-9 {
+                        return (theta, trial_cost, iterations);
+                    }
+                    break;
+                }
+            }
+            lambda *= 4.0;
+        }
+        if !accepted {
+            break;
+        }
+        (jtj, jtr, current) = normal_equations(observations, &theta);
+    }
+    (theta, current, iterations)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parametrisation_round_trips_within_bounds() {
+        let model = LambertGgx {
+            albedo: [0.2, 0.5, 0.9],
+            f0: [0.04, 0.3, 0.95],
+            alpha_x: 0.02,
+            alpha_y: 1.2,
+            rotation: 0.7,
+        };
+        let back = model_of(&params_of(&model));
+        for c in 0..3 {
+            assert!((back.albedo[c] - model.albedo[c]).abs() < 1e-9);
+            assert!((back.f0[c] - model.f0[c]).abs() < 1e-9);
+        }
+        assert!((back.alpha_x - 0.02).abs() < 1e-9 && (back.alpha_y - 1.2).abs() < 1e-9);
+        let extreme = model_of(&[1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0]);
+        assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
+        assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));
+    }
+}

@@ -1,0 +1,114 @@
+//! The oracle: the full truth projected onto the basis, every bin observed. It is the best
+//! any sparse method could do with this basis, in the basis's own sense: least squares over
+//! all pairs in the log-mapped domain (cos weight inside the map, pair multiplicity as the
+//! weight, values clamped to the database's range), which is what the solver minimises over
+//! the painted bins.
+
+use crate::basis::Basis;
+use crate::table::{PAIRS, SymTable, pair_multiplicity};
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Pairs per deterministic partial sum.
+const BLOCK: usize = 4096;
+
+/// Projects tables onto one basis; the Gram matrix is computed once.
+pub struct OracleProjector {
+    basis: Arc<Basis>,
+    /// Cholesky-factorable Gram matrix Σ_p w_p u_p u_pᵀ (≈ I by construction, kept exact
+    /// against the rows' f32 rounding).
+    gram: Mat<f64>,
+}
+
+impl OracleProjector {
+    pub fn new(basis: Arc<Basis>) -> Self {
+        let k = basis.components();
+        let partials: Vec<Vec<f64>> = (0..PAIRS.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let mut g = vec![0f64; k * k];
+                let mut row = vec![0f64; k];
+                for pair in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
+                    let w = pair_multiplicity(pair);
+                    for (r, &u) in row.iter_mut().zip(basis.row(pair)) {
+                        *r = u as f64;
+                    }
+                    for i in 0..k {
+                        let wu = w * row[i];
+                        for j in i..k {
+                            g[i * k + j] += wu * row[j];
+                        }
+                    }
+                }
+                g
+            })
+            .collect();
+        let mut gram = Mat::<f64>::zeros(k, k);
+        for g in &partials {
+            for i in 0..k {
+                for j in i..k {
+                    gram[(i, j)] += g[i * k + j];
+                }
+            }
+        }
+        for i in 0..k {
+            for j in 0..i {
+                gram[(i, j)] = gram[(j, i)];
+            }
+        }
+        Self { basis, gram }
+    }
+
+    pub fn basis(&self) -> &Arc<Basis> {
+        &self.basis
+    }
+
+    /// The least-squares coefficients of `truth` (K rows of R, G, B).
+    pub fn project(&self, truth: &SymTable) -> Vec<[f64; 3]> {
+        let basis = &self.basis;
+        let k = basis.components();
+        let values = truth.pairs();
+        let partials: Vec<Vec<[f64; 3]>> = (0..PAIRS.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let mut rhs = vec![[0f64; 3]; k];
+                for pair in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
+                    let w = pair_multiplicity(pair);
+                    let y = values[pair].map(|v| w * basis.centred_observation(pair, v as f64));
+                    for (r, &u) in rhs.iter_mut().zip(basis.row(pair)) {
+                        for c in 0..3 {
+                            r[c] += u as f64 * y[c];
+                        }
+                    }
+                }
+                rhs
+            })
+            .collect();
+        let mut x = Mat::<f64>::zeros(k, 3);
+        for part in &partials {
+            for i in 0..k {
+                for c in 0..3 {
+                    x[(i, c)] += part[i][c];
+                }
+            }
+        }
+        // The rows are orthonormal by construction: should G fail to factor, Gx = b is
+        // x = b to within their rounding.
+        if let Ok(llt) = self.gram.llt(Side::Lower) {
+            llt.solve_in_place(x.as_mut());
+        }
+        (0..k)
+            .map(|i| {
+                std::array::from_fn(|c| {
+                    if x[(i, c)].is_finite() {
+                        x[(i, c)]
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect()
+    }
+}

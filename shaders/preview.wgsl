@@ -58,6 +58,9 @@ struct Frame {
 @group(0) @binding(2) var<storage, read> sparse: array<u32>;
 @group(0) @binding(3) var shadow_map: texture_depth_2d;
 @group(0) @binding(4) var shadow_sampler: sampler_comparison;
+// Per pair: set to 1 when the reconstruction is read there, so that new coefficients can be
+// evaluated only for the pairs this view reads (shaders/view_pairs.wgsl).
+@group(0) @binding(5) var<storage, read_write> marked: array<u32>;
 
 // table::pair_index.
 fn pair_index(a: u32, b: u32) -> u32 {
@@ -67,7 +70,11 @@ fn pair_index(a: u32, b: u32) -> u32 {
 }
 
 fn table_value(a: u32, b: u32) -> vec3<f32> {
-    let i = 3u * pair_index(a, b);
+    let pair = pair_index(a, b);
+    if frame.flags.x == MODE_RECONSTRUCTION {
+        marked[pair] = 1u;
+    }
+    let i = 3u * pair;
     return vec3<f32>(values[i], values[i + 1u], values[i + 2u]);
 }
 

@@ -1,5 +1,6 @@
-// Evaluates the reconstruction for every unordered direction pair, exactly as
-// solver::Reconstruction::eval_pair does: m = clamp(mean + Σ_k u_k x_k, lower − margin,
+// Evaluates the reconstruction for every unordered direction pair (`reconstruct`), or for the
+// pairs the current view reads (`reconstruct_listed`, over shaders/view_pairs.wgsl's list),
+// exactly as solver::Reconstruction::eval_pair does: m = clamp(mean + Σ_k u_k x_k, lower − margin,
 // upper + margin), ρ = max((e^m (reference + ε) − ε) / c, 0). It runs once per change of
 // coefficients; the scene pass then reads the result like any table.
 
@@ -28,13 +29,27 @@ struct Params {
 @group(0) @binding(4) var<storage, read> inv_cos_weight: array<f32>;
 // Output: ρ, 3 floats per pair.
 @group(0) @binding(5) var<storage, read_write> rho: array<f32>;
+// The pairs the view reads, and (count, workgroups x, y, z) of their indirect dispatch.
+@group(0) @binding(6) var<storage, read> listed: array<u32>;
+@group(0) @binding(7) var<storage, read> listed_counts: array<u32, 4>;
 
 @compute @workgroup_size(256)
 fn reconstruct(@builtin(global_invocation_id) id: vec3<u32>) {
     let pair = id.x + id.y * params.stride;
-    if pair >= params.pairs {
-        return;
+    if pair < params.pairs {
+        evaluate(pair);
     }
+}
+
+@compute @workgroup_size(256)
+fn reconstruct_listed(@builtin(global_invocation_id) id: vec3<u32>) {
+    let index = id.x + id.y * listed_counts[1] * 256u;
+    if index < listed_counts[0] {
+        evaluate(listed[index]);
+    }
+}
+
+fn evaluate(pair: u32) {
     // table::pair_directions: hi is the largest integer with hi (hi + 1) / 2 <= pair.
     var hi = u32((sqrt(f32(8u * pair + 1u)) - 1.0) * 0.5);
     while hi * (hi + 1u) / 2u > pair {

@@ -351,6 +351,63 @@ fn interpolation_reduces_banding() {
     assert!(smooth_jump < 0.5 * nearest_jump);
 }
 
+/// Once the view has been drawn, new coefficients are evaluated only for the pairs it reads
+/// (a list the scene pass marks): the picture is bit for bit the one an evaluation of every
+/// pair gives. Turning the camera toward pairs that hold older values re-evaluates them, and
+/// the table read back is always complete.
+#[test]
+fn new_coefficients_are_evaluated_only_where_the_view_reads() {
+    let gpu = gpu();
+    let basis = common::small_basis(8);
+    let (scene, object) = scene("sphere", 160, |_| {});
+    let mut frame = PreviewFrame::from_scene(&scene);
+    frame.mode = PreviewMode::Reconstruction;
+    let mut turned = frame.clone();
+    turned.camera.yaw_deg += 50.0;
+    turned.camera.pitch_deg += 20.0;
+    let (x0, x1) = (coefficients(&basis, 0), coefficients(&basis, 1));
+    let everything = |x: &[[f64; 3]], frame: &PreviewFrame| {
+        let mut r = renderer(&gpu);
+        r.set_basis(&basis).unwrap();
+        r.set_object(&object).unwrap();
+        r.set_coefficients(x).unwrap();
+        render(&gpu, &mut r, frame, 160).pixels
+    };
+
+    let mut r = renderer(&gpu);
+    r.set_basis(&basis).unwrap();
+    r.set_object(&object).unwrap();
+    assert_eq!(r.view_pair_count().unwrap(), None);
+    r.set_coefficients(&x0).unwrap();
+    render(&gpu, &mut r, &frame, 160);
+    let listed = r
+        .view_pair_count()
+        .unwrap()
+        .expect("the frame listed its pairs");
+    eprintln!("the view reads {listed} of {PAIRS} pairs");
+    assert!(
+        listed > 1000 && (listed as usize) < PAIRS / 10,
+        "{listed} pairs"
+    );
+
+    r.set_coefficients(&x1).unwrap();
+    assert_eq!(
+        render(&gpu, &mut r, &frame, 160).pixels,
+        everything(&x1, &frame)
+    );
+    assert_eq!(
+        render(&gpu, &mut r, &turned, 160).pixels,
+        everything(&x1, &turned),
+        "pairs the first view did not read are brought up to date"
+    );
+    r.set_coefficients(&x0).unwrap();
+    render(&gpu, &mut r, &turned, 160);
+    let on_gpu = r.reconstruction_table(&gpu.device, &gpu.queue).unwrap();
+    let engine = Reconstruction::new(basis.clone(), &x0).materialize();
+    let (max, mean) = table_errors(&on_gpu, &engine);
+    assert!(max < 3e-2 && mean < 1e-3, "max {max}, mean {mean}");
+}
+
 /// Sparse mode: observed bins show π ρ cos θ_l (ρ stored as f16), every other lit pixel the
 /// neutral checker; forgetting a bin or clearing all brings the checker back.
 #[test]

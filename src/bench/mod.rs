@@ -157,12 +157,7 @@ impl Config {
 
 /// `auto`, `gcv`, `prior:α` or `ridge:λ`, as `--lambda` takes them.
 pub fn regularization_name(r: Regularization) -> String {
-    match r {
-        Regularization::Auto => "auto".into(),
-        Regularization::Gcv => "gcv".into(),
-        Regularization::Prior { alpha } => format!("prior:{alpha}"),
-        Regularization::Ridge { lambda } => format!("ridge:{lambda}"),
-    }
+    r.to_string()
 }
 
 pub fn policy_name(p: Policy) -> &'static str {

@@ -62,6 +62,44 @@ struct GpuBasis {
     output: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     workgroups: (u32, u32),
+    /// Per pair, non-zero where the scene pass read the reconstruction.
+    marked: wgpu::Buffer,
+    /// The marked pairs' count and indirect dispatch size (shaders/view_pairs.wgsl).
+    listed_counts: wgpu::Buffer,
+    pairs_bind_group: wgpu::BindGroup,
+}
+
+/// What decides which pairs a frame of the reconstruction reads: the frame without the
+/// settings that only scale or surround the picture, its size and the object.
+#[derive(Clone, Debug, PartialEq)]
+struct MarksKey {
+    frame: PreviewFrame,
+    size: [u32; 2],
+    object_generation: u64,
+}
+
+impl MarksKey {
+    fn new(frame: &PreviewFrame, size: [u32; 2], object_generation: u64) -> Self {
+        let mut frame = frame.clone();
+        frame.exposure_stops = 0.0;
+        frame.background = [0.0; 3];
+        Self {
+            frame,
+            size,
+            object_generation,
+        }
+    }
+}
+
+/// How much of the reconstruction a frame re-evaluates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Evaluation {
+    /// Nothing changed that the view reads.
+    None,
+    /// Only the pairs the view was seen to read, with the last frame of the same geometry.
+    Listed,
+    /// Every pair; the scene pass then marks what the view reads.
+    All,
 }
 
 /// The off-screen targets of one size.
@@ -93,6 +131,10 @@ pub struct PreviewRenderer {
     mesh_pipeline: wgpu::RenderPipeline,
     shadow_pipeline: wgpu::RenderPipeline,
     compute_pipeline: wgpu::ComputePipeline,
+    listed_pipeline: wgpu::ComputePipeline,
+    pairs_layout: wgpu::BindGroupLayout,
+    compact_pipeline: wgpu::ComputePipeline,
+    size_dispatch_pipeline: wgpu::ComputePipeline,
     present_pipeline: wgpu::RenderPipeline,
 
     frame_uniforms: wgpu::Buffer,
@@ -102,12 +144,19 @@ pub struct PreviewRenderer {
     shadow_sampler: wgpu::Sampler,
     /// Bound as the table in modes that read none.
     empty_values: wgpu::Buffer,
+    /// Bound as the pair marks when there is no basis (nothing is marked then).
+    empty_marks: wgpu::Buffer,
 
     mesh: Option<GpuMesh>,
     object_generation: u64,
     shadow_key: Option<ShadowKey>,
     basis: Option<GpuBasis>,
+    /// The coefficients changed since the reconstruction was last evaluated.
     reconstruction_stale: bool,
+    /// Every pair holds the current coefficients' value (not only the listed ones).
+    reconstruction_complete: bool,
+    /// The geometry the basis's marks and list were gathered for.
+    marks_key: Option<MarksKey>,
     table: Option<wgpu::Buffer>,
     sparse: wgpu::Buffer,
     /// The sparse buffer's contents, so that changed runs can be uploaded whole.
@@ -221,6 +270,10 @@ impl PreviewRenderer {
             label: Some("preview reconstruction"),
             source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/reconstruct.wgsl").into()),
         });
+        let pairs_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("preview view pairs"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/view_pairs.wgsl").into()),
+        });
         let present_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("preview present"),
             source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/present.wgsl").into()),
@@ -249,6 +302,7 @@ impl PreviewRenderer {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
                     count: None,
                 },
+                storage_entry(5, fragment, false),
             ],
         });
         let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -265,6 +319,17 @@ impl PreviewRenderer {
                 storage_entry(3, compute, true),
                 storage_entry(4, compute, true),
                 storage_entry(5, compute, false),
+                storage_entry(6, compute, true),
+                storage_entry(7, compute, true),
+            ],
+        });
+        let pairs_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("preview view pairs"),
+            entries: &[
+                uniform_entry(0, compute),
+                storage_entry(1, compute, true),
+                storage_entry(2, compute, false),
+                storage_entry(3, compute, false),
             ],
         });
         let present_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -294,6 +359,7 @@ impl PreviewRenderer {
         let scene_pipeline_layout = pipeline_layout(&scene_layout, "preview scene");
         let shadow_pipeline_layout = pipeline_layout(&shadow_layout, "preview shadow");
         let compute_pipeline_layout = pipeline_layout(&compute_layout, "preview reconstruction");
+        let pairs_pipeline_layout = pipeline_layout(&pairs_layout, "preview view pairs");
         let present_pipeline_layout = pipeline_layout(&present_layout, "preview present");
 
         let mesh_buffers = [Some(wgpu::VertexBufferLayout {
@@ -362,14 +428,41 @@ impl PreviewRenderer {
             multiview_mask: None,
             cache: None,
         });
-        let compute_pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("preview reconstruction"),
-            layout: Some(&compute_pipeline_layout),
-            module: &compute_module,
-            entry_point: Some("reconstruct"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let compute_pipeline =
+            |label: &str, layout: &wgpu::PipelineLayout, module, entry_point: &str| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(layout),
+                    module,
+                    entry_point: Some(entry_point),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            };
+        let listed_pipeline = compute_pipeline(
+            "preview reconstruction of listed pairs",
+            &compute_pipeline_layout,
+            &compute_module,
+            "reconstruct_listed",
+        );
+        let compact_pipeline = compute_pipeline(
+            "preview view pairs",
+            &pairs_pipeline_layout,
+            &pairs_module,
+            "compact",
+        );
+        let size_dispatch_pipeline = compute_pipeline(
+            "preview view pairs dispatch",
+            &pairs_pipeline_layout,
+            &pairs_module,
+            "size_dispatch",
+        );
+        let compute_pipeline = compute_pipeline(
+            "preview reconstruction",
+            &compute_pipeline_layout,
+            &compute_module,
+            "reconstruct",
+        );
         let present_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("preview present"),
             layout: Some(&present_pipeline_layout),
@@ -461,6 +554,14 @@ impl PreviewRenderer {
                     shadow_texture,
                 )
             })?;
+        let empty_marks = allocate(device, || {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("preview no pair marks"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            })
+        })?;
         let shadow_view = shadow_texture.create_view(&Default::default());
         let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("preview shadow"),
@@ -487,6 +588,10 @@ impl PreviewRenderer {
             mesh_pipeline,
             shadow_pipeline,
             compute_pipeline,
+            listed_pipeline,
+            pairs_layout,
+            compact_pipeline,
+            size_dispatch_pipeline,
             present_pipeline,
             frame_uniforms,
             shadow_bind_group,
@@ -494,11 +599,14 @@ impl PreviewRenderer {
             shadow_view,
             shadow_sampler,
             empty_values,
+            empty_marks,
             mesh: None,
             object_generation: 0,
             shadow_key: None,
             basis: None,
             reconstruction_stale: false,
+            reconstruction_complete: false,
+            marks_key: None,
             table: None,
             sparse,
             sparse_words: vec![0; PAIRS * SPARSE_WORDS],
@@ -612,6 +720,21 @@ impl PreviewRenderer {
                 ),
             )
         })?;
+        let (marked, listed, listed_counts) = allocate(device, || {
+            (
+                buffer("preview pair marks", (PAIRS * 4) as u64, usage),
+                buffer(
+                    "preview listed pairs",
+                    (PAIRS * 4) as u64,
+                    wgpu::BufferUsages::STORAGE,
+                ),
+                buffer(
+                    "preview listed pair counts",
+                    16,
+                    usage | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
+                ),
+            )
+        })?;
 
         let (references, means, lowers, uppers) = (
             basis.references(),
@@ -694,6 +817,28 @@ impl PreviewRenderer {
                 buffer_entry(3, &ranges),
                 buffer_entry(4, &inverse_weights),
                 buffer_entry(5, &output),
+                buffer_entry(6, &listed),
+                buffer_entry(7, &listed_counts),
+            ],
+        });
+        let pairs_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("preview view pairs parameters"),
+            contents: bytemuck::cast_slice(&[
+                PAIRS as u32,
+                workgroups.0 * WORKGROUP_SIZE,
+                max_groups,
+                0,
+            ]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let pairs_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("preview view pairs"),
+            layout: &self.pairs_layout,
+            entries: &[
+                buffer_entry(0, &pairs_params),
+                buffer_entry(1, &marked),
+                buffer_entry(2, &listed),
+                buffer_entry(3, &listed_counts),
             ],
         });
         self.queue
@@ -705,8 +850,13 @@ impl PreviewRenderer {
             output,
             bind_group,
             workgroups,
+            marked,
+            listed_counts,
+            pairs_bind_group,
         });
         self.reconstruction_stale = true;
+        self.reconstruction_complete = false;
+        self.marks_key = None;
         Ok(())
     }
 
@@ -886,9 +1036,19 @@ impl PreviewRenderer {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("preview frame"),
         });
+        let mut evaluation = Evaluation::None;
         if frame.mode == PreviewMode::Reconstruction {
-            self.encode_reconstruction(&mut encoder);
+            let key = MarksKey::new(frame, size, self.object_generation);
+            evaluation = self.plan_evaluation(&key);
+            self.encode_reconstruction(&mut encoder, evaluation);
+            if evaluation == Evaluation::All {
+                // The scene pass below marks afresh what this geometry reads.
+                let basis = self.basis.as_ref().expect("checked above");
+                encoder.clear_buffer(&basis.marked, 0, None);
+                self.marks_key = Some(key);
+            }
         }
+        let marks = self.basis.as_ref().map_or(&self.empty_marks, |b| &b.marked);
         let values = match (frame.mode, &self.basis, &self.table) {
             (PreviewMode::Reconstruction, Some(basis), _) => &basis.output,
             (PreviewMode::Table, _, Some(table)) => table,
@@ -909,6 +1069,7 @@ impl PreviewRenderer {
                     binding: 4,
                     resource: wgpu::BindingResource::Sampler(&self.shadow_sampler),
                 },
+                buffer_entry(5, marks),
             ],
         });
         let light = frame.light.direction().as_vec3().to_array();
@@ -978,6 +1139,9 @@ impl PreviewRenderer {
                     pass.draw_indexed(0..mesh.index_count, 0, 0..1);
                 }
             }
+        }
+        if evaluation == Evaluation::All {
+            self.encode_listing(&mut encoder);
         }
         queue.submit([encoder.finish()]);
         Ok(())
@@ -1112,7 +1276,9 @@ impl PreviewRenderer {
         if self.basis.is_none() {
             return Err(PreviewError::Missing("no basis has been set"));
         }
-        self.encode_reconstruction(&mut encoder);
+        if self.reconstruction_stale || !self.reconstruction_complete {
+            self.encode_reconstruction(&mut encoder, Evaluation::All);
+        }
         let basis = self.basis.as_ref().expect("checked above");
         encoder.copy_buffer_to_buffer(&basis.output, 0, &readback, 0, size);
         queue.submit([encoder.finish()]);
@@ -1121,23 +1287,90 @@ impl PreviewRenderer {
         Ok(SymTable::from_pairs(values).expect("PAIRS values"))
     }
 
-    /// Records the reconstruction pass if the coefficients changed since it last ran.
-    fn encode_reconstruction(&mut self, encoder: &mut wgpu::CommandEncoder) {
+    /// How many pairs the last listing found the view reading (those new coefficients are
+    /// evaluated for while the geometry stays); `None` before a reconstruction frame.
+    pub fn view_pair_count(&self) -> Result<Option<u32>, PreviewError> {
+        let (Some(basis), Some(_)) = (&self.basis, &self.marks_key) else {
+            return Ok(None);
+        };
+        let readback = allocate(&self.device, || {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("preview listed pair count readback"),
+                size: 16,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        })?;
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("preview listed pair count readback"),
+            });
+        encoder.copy_buffer_to_buffer(&basis.listed_counts, 0, &readback, 0, 16);
+        self.queue.submit([encoder.finish()]);
+        let bytes = read_buffer(&self.device, &readback)?;
+        Ok(Some(bytemuck::cast_slice::<u8, u32>(&bytes)[0]))
+    }
+
+    /// What a frame of `key`'s geometry must re-evaluate. New coefficients are evaluated for
+    /// the listed pairs only when the list was made for this geometry; otherwise for all,
+    /// which also makes the list. Unchanged coefficients need nothing unless the view turned
+    /// to pairs that only hold older values.
+    fn plan_evaluation(&self, key: &MarksKey) -> Evaluation {
+        let listed = self.marks_key.as_ref() == Some(key);
+        match (self.reconstruction_stale, listed) {
+            (true, true) => Evaluation::Listed,
+            (true, false) => Evaluation::All,
+            (false, true) => Evaluation::None,
+            (false, false) if self.reconstruction_complete => Evaluation::None,
+            (false, false) => Evaluation::All,
+        }
+    }
+
+    /// Records the reconstruction pass over all pairs or over the listed ones.
+    fn encode_reconstruction(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        evaluation: Evaluation,
+    ) {
         let Some(basis) = &self.basis else {
             return;
         };
-        if !self.reconstruction_stale {
+        if evaluation == Evaluation::None {
             return;
         }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("preview reconstruction"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.compute_pipeline);
         pass.set_bind_group(0, &basis.bind_group, &[]);
-        pass.dispatch_workgroups(basis.workgroups.0, basis.workgroups.1, 1);
+        if evaluation == Evaluation::All {
+            pass.set_pipeline(&self.compute_pipeline);
+            pass.dispatch_workgroups(basis.workgroups.0, basis.workgroups.1, 1);
+        } else {
+            pass.set_pipeline(&self.listed_pipeline);
+            pass.dispatch_workgroups_indirect(&basis.listed_counts, 4);
+        }
         drop(pass);
         self.reconstruction_stale = false;
+        self.reconstruction_complete = evaluation == Evaluation::All;
+    }
+
+    /// Records the passes that list the pairs the scene pass marked and size their dispatch.
+    fn encode_listing(&self, encoder: &mut wgpu::CommandEncoder) {
+        let Some(basis) = &self.basis else {
+            return;
+        };
+        encoder.clear_buffer(&basis.listed_counts, 0, None);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("preview view pairs"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &basis.pairs_bind_group, &[]);
+        pass.set_pipeline(&self.compact_pipeline);
+        pass.dispatch_workgroups(basis.workgroups.0, basis.workgroups.1, 1);
+        pass.set_pipeline(&self.size_dispatch_pipeline);
+        pass.dispatch_workgroups(1, 1, 1);
     }
 
     fn create_target(&self, device: &wgpu::Device, size: [u32; 2]) -> Result<Target, PreviewError> {

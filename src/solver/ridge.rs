@@ -69,8 +69,23 @@ impl std::fmt::Display for Regularization {
         match self {
             Self::Auto => f.write_str("auto"),
             Self::Gcv => f.write_str("gcv"),
-            Self::Prior { alpha } => write!(f, "prior:{alpha}"),
-            Self::Ridge { lambda } => write!(f, "ridge:{lambda}"),
+            Self::Prior { alpha } => write!(f, "prior:{}", Short(*alpha)),
+            Self::Ridge { lambda } => write!(f, "ridge:{}", Short(*lambda)),
+        }
+    }
+}
+
+/// A number as a person writes it: plain between 10⁻³ and 10⁶, in exponent form outside
+/// (`{}` alone spells 1e-300 with three hundred digits). Both forms parse back exactly.
+struct Short(f64);
+
+impl std::fmt::Display for Short {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
         }
     }
 }
@@ -427,5 +442,14 @@ mod tests {
         assert!("-1".parse::<Regularization>().is_err());
         assert!("nan".parse::<Regularization>().is_err());
         assert!("foo:1".parse::<Regularization>().is_err());
+        for r in [
+            Regularization::Ridge { lambda: 1e-300 },
+            Regularization::Prior { alpha: 1e12 },
+            Regularization::Prior { alpha: 0.5 },
+        ] {
+            let text = r.to_string();
+            assert!(text.len() < 16, "{text}");
+            assert_eq!(text.parse::<Regularization>(), Ok(r));
+        }
     }
 }

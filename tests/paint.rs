@@ -319,7 +319,8 @@ fn undo_restores_every_tool_bit_for_bit_and_redo_reapplies_identically() {
     let n = canvas.resolution();
     let (cx, cy, r) = object_disc(&canvas);
     let mut states = vec![state(&canvas)];
-    let edits: Vec<Box<dyn Fn(&mut Canvas)>> = vec![
+    type Edit = Box<dyn Fn(&mut Canvas)>;
+    let edits: Vec<Edit> = vec![
         Box::new(move |c| {
             let s = brush(BrushKind::Round, 25.0, 0.8, [0.8, 0.1, 0.1]);
             stroke(c, &s, &line((cx - r, cy - 20.0), (cx + r, cy + 20.0), 9));

@@ -210,7 +210,13 @@ fn coefficients(basis: &burnish::basis::Basis, seed: usize) -> Vec<[f64; 3]> {
         .enumerate()
         .map(|(k, v)| {
             let s = v.sqrt();
-            let sign = |c: usize| if (k + c + seed) % 3 == 0 { -1.0 } else { 1.0 };
+            let sign = |c: usize| {
+                if (k + c + seed).is_multiple_of(3) {
+                    -1.0
+                } else {
+                    1.0
+                }
+            };
             [0.9 * s * sign(0), 0.6 * s * sign(1), 0.3 * s * sign(2)]
         })
         .collect()

@@ -163,12 +163,21 @@ fn hostile_regularization() -> impl Strategy<Value = Regularization> {
     ]
 }
 
+/// Cases come from a fixed seed, so that a run (CI's included) is repeatable; set
+/// PROPTEST_RNG_SEED to explore others (and the fuzz target explores without end).
 fn runner(cases: u32) -> TestRunner {
+    let base = Config::with_source_file(file!());
+    let rng_seed = if std::env::var_os("PROPTEST_RNG_SEED").is_some() {
+        base.rng_seed
+    } else {
+        proptest::test_runner::RngSeed::Fixed(0x0b_u64 << 56 | 0x5eed)
+    };
     TestRunner::new(Config {
         cases,
         // Shrinking replays whole sessions; a few hundred steps find a small case.
         max_shrink_iters: 512,
-        ..Config::with_source_file(file!())
+        rng_seed,
+        ..base
     })
 }
 
@@ -764,7 +773,8 @@ fn duplicates_equal_one_sample() {
                     value[c]
                 );
             } else {
-                prop_assert_eq!(value[c].to_bits(), rho[c].to_bits());
+                // −0 is stored as +0.
+                prop_assert_eq!(value[c].to_bits(), (rho[c] + 0.0).to_bits());
             }
         }
         // The solver sees the bin value only, so its solution is within rounding of one sample's.
@@ -802,10 +812,8 @@ fn ill_conditioned_systems_give_finite_backward_stable_solutions() {
         }
         let solution = session.solver.solve();
         let observed = session.table.observed_count();
-        prop_assert!(
-            observed <= 9 && observed < K,
-            "K above the observed bin count"
-        );
+        // At most the 3 × 3 patch: fewer bins than K = 20 components.
+        prop_assert!(observed <= 9, "K above the observed bin count");
         let hostile = match regularization {
             Regularization::Ridge { lambda: v } | Regularization::Prior { alpha: v } => {
                 !(v.is_finite() && v >= 0.0)

@@ -39,11 +39,11 @@ fn sync(worker: &Worker) -> Arc<burnish::worker::Snapshot> {
         .expect("the worker answers")
 }
 
+/// A view's id, its geometry and its painted pixels with their colours.
+type PaintedView<'a> = (u32, &'a GBuffer, &'a [(u32, [f32; 3])]);
+
 /// The coefficients a from-scratch batch solve gives for these samples.
-fn batch_solution(
-    basis: Arc<burnish::basis::Basis>,
-    views: &[(u32, &GBuffer, &[(u32, [f32; 3])])],
-) -> Vec<[f64; 3]> {
+fn batch_solution(basis: Arc<burnish::basis::Basis>, views: &[PaintedView]) -> Vec<[f64; 3]> {
     let mut sparse = SparseTable::new(Policy::Mean);
     let mut changes = Vec::new();
     for &(view, gbuffer, paint) in views {

@@ -102,7 +102,7 @@ impl BurnishApp {
                 .collect(),
             active_view: self.active,
             brush: self.brush.clone(),
-            basis: self.basis_settings.clone(),
+            basis: self.basis_settings,
         }
     }
 
@@ -161,7 +161,7 @@ impl BurnishApp {
             }],
             active_view: 0,
             brush: self.brush.clone(),
-            basis: self.basis_settings.clone(),
+            basis: self.basis_settings,
         };
         self.load_session(session)?;
         self.session_path = None;

@@ -106,10 +106,10 @@ impl BasisJob {
     /// The basis once, when it has just become ready.
     pub fn take_result(&mut self) -> Option<Arc<Basis>> {
         let basis = self.shared.lock().ok()?.result.take();
-        if basis.is_some() {
-            if let Some(thread) = self.thread.take() {
-                let _ = thread.join();
-            }
+        if basis.is_some()
+            && let Some(thread) = self.thread.take()
+        {
+            let _ = thread.join();
         }
         basis
     }

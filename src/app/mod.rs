@@ -160,7 +160,7 @@ impl BurnishApp {
 
     /// The app without a window (the state the UI drives); `new` adds the GPU preview.
     pub fn headless(config: AppConfig) -> Self {
-        let settings = config.basis_settings.clone();
+        let settings = config.basis_settings;
         let worker = Worker::spawn(settings.policy, settings.regularization);
         let spec = basis_spec(&settings);
         let basis_job = match config.basis {
@@ -375,13 +375,13 @@ impl BurnishApp {
 
     /// Records the latency of the newest snapshot the first time a frame draws it.
     pub(crate) fn record_drawn(&mut self, version: u64, oldest_input: Option<Instant>) {
-        if let Some(t) = oldest_input {
-            if self.preview_state.last_drawn_version < version {
-                if self.latencies_ms.len() == LATENCY_HISTORY {
-                    self.latencies_ms.remove(0);
-                }
-                self.latencies_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        if let Some(t) = oldest_input
+            && self.preview_state.last_drawn_version < version
+        {
+            if self.latencies_ms.len() == LATENCY_HISTORY {
+                self.latencies_ms.remove(0);
             }
+            self.latencies_ms.push(t.elapsed().as_secs_f64() * 1e3);
         }
         self.preview_state.last_drawn_version = version;
     }

@@ -15,6 +15,8 @@ use std::sync::Arc;
 /// Pixels per side of the table thumbnail.
 const TABLE_THUMBNAIL: usize = 405;
 
+type LobeCache = (u64, f32, f32, Vec<(f64, Rgb)>);
+
 /// What the preview keeps between frames.
 #[derive(Default)]
 pub struct PreviewState {
@@ -32,7 +34,8 @@ pub struct PreviewState {
     uploaded_basis: Option<Arc<Basis>>,
     /// The object the GPU holds: (view id, object name).
     uploaded_object: Option<(u32, String)>,
-    lobe: Option<(u64, f32, f32, Vec<(f64, Rgb)>)>,
+    /// The lobe last plotted: snapshot version, θ and φ of incidence, and its samples.
+    lobe: Option<LobeCache>,
     table: Option<(u64, TextureHandle, bool)>,
     /// Where the last frame drew the object preview.
     pub last_rect: Option<egui::Rect>,
@@ -218,24 +221,25 @@ fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             camera.pitch_deg = (camera.pitch_deg + delta.y as f64 * 0.5).clamp(-89.0, 89.0);
         }
     }
-    if app.brush.kind == crate::paint::BrushKind::Eyedropper && response.clicked() {
-        if let Some(pos) = response.interact_pointer_pos() {
-            let ppp = ui.ctx().pixels_per_point();
-            match app.preview_state.pick(&app.preview, rect, pos, ppp) {
-                Ok(Some(colour)) => app.brush.colour = colour,
-                Ok(None) => {}
-                Err(e) => app.notify_error(format!("preview eyedropper: {e}")),
-            }
+    if app.brush.kind == crate::paint::BrushKind::Eyedropper
+        && response.clicked()
+        && let Some(pos) = response.interact_pointer_pos()
+    {
+        let ppp = ui.ctx().pixels_per_point();
+        match app.preview_state.pick(&app.preview, rect, pos, ppp) {
+            Ok(Some(colour)) => app.brush.colour = colour,
+            Ok(None) => {}
+            Err(e) => app.notify_error(format!("preview eyedropper: {e}")),
         }
     }
-    if response.double_clicked() {
-        if let Some(doc) = app.active_view() {
-            let scene = doc.scene.clone();
-            let mode = app.preview.mode;
-            app.preview = crate::preview::PreviewFrame::from_scene(&scene);
-            app.preview.mode = mode;
-            app.preview.interpolate = true;
-        }
+    if response.double_clicked()
+        && let Some(doc) = app.active_view()
+    {
+        let scene = doc.scene.clone();
+        let mode = app.preview.mode;
+        app.preview = crate::preview::PreviewFrame::from_scene(&scene);
+        app.preview.mode = mode;
+        app.preview.interpolate = true;
     }
     if app.preview_state.render_state.is_none() {
         ui.painter()
@@ -310,11 +314,9 @@ fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         .lobe
         .as_ref()
         .is_none_or(|(v, t, p, _)| *v != version || *t != theta || *p != phi);
-    if stale {
-        if let Some(recon) = current_reconstruction(app) {
-            let points = incidence_plane(&recon, theta as f64, phi as f64);
-            app.preview_state.lobe = Some((version, theta, phi, points));
-        }
+    if stale && let Some(recon) = current_reconstruction(app) {
+        let points = incidence_plane(&recon, theta as f64, phi as f64);
+        app.preview_state.lobe = Some((version, theta, phi, points));
     }
     let Some((_, _, _, points)) = &app.preview_state.lobe else {
         ui.label("The lobe appears when the basis is ready.");
@@ -357,34 +359,32 @@ fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         .table
         .as_ref()
         .is_none_or(|(v, _, o)| *v != version || *o != show_reached);
-    if stale {
-        if let Some(recon) = current_reconstruction(app) {
-            let thumb = table_thumbnail(&recon, TABLE_THUMBNAIL);
-            let reached =
-                show_reached.then(|| observed_mask(app.observed.keys().copied(), TABLE_THUMBNAIL));
-            let inconsistent = show_reached
-                .then(|| observed_mask(app.inconsistent.iter().copied(), TABLE_THUMBNAIL));
-            let pixels = thumb
-                .pixels
-                .iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0) as u8;
-                    let base = Color32::from_rgb(byte(p[0]), byte(p[1]), byte(p[2]));
-                    match (&reached, &inconsistent) {
-                        (Some(_), Some(bad)) if bad[i] => Color32::from_rgb(255, 40, 40),
-                        (Some(seen), _) if seen[i] => Color32::from_rgb(60, 220, 90),
-                        (Some(_), _) => base.gamma_multiply(0.45),
-                        _ => base,
-                    }
-                })
-                .collect();
-            let image = ColorImage::new([TABLE_THUMBNAIL, TABLE_THUMBNAIL], pixels);
-            let texture = ui
-                .ctx()
-                .load_texture("table", image, TextureOptions::NEAREST);
-            app.preview_state.table = Some((version, texture, show_reached));
-        }
+    if stale && let Some(recon) = current_reconstruction(app) {
+        let thumb = table_thumbnail(&recon, TABLE_THUMBNAIL);
+        let reached =
+            show_reached.then(|| observed_mask(app.observed.keys().copied(), TABLE_THUMBNAIL));
+        let inconsistent =
+            show_reached.then(|| observed_mask(app.inconsistent.iter().copied(), TABLE_THUMBNAIL));
+        let pixels = thumb
+            .pixels
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0) as u8;
+                let base = Color32::from_rgb(byte(p[0]), byte(p[1]), byte(p[2]));
+                match (&reached, &inconsistent) {
+                    (Some(_), Some(bad)) if bad[i] => Color32::from_rgb(255, 40, 40),
+                    (Some(seen), _) if seen[i] => Color32::from_rgb(60, 220, 90),
+                    (Some(_), _) => base.gamma_multiply(0.45),
+                    _ => base,
+                }
+            })
+            .collect();
+        let image = ColorImage::new([TABLE_THUMBNAIL, TABLE_THUMBNAIL], pixels);
+        let texture = ui
+            .ctx()
+            .load_texture("table", image, TextureOptions::NEAREST);
+        app.preview_state.table = Some((version, texture, show_reached));
     }
     ui.checkbox(
         &mut app.show_overlay,

@@ -182,15 +182,14 @@ fn scene_setup(app: &mut BurnishApp, ui: &mut egui::Ui) {
             });
             ui.end_row();
         });
-    if open_obj {
-        if let Some(path) = rfd::FileDialog::new()
+    if open_obj
+        && let Some(path) = rfd::FileDialog::new()
             .set_title("Open OBJ")
             .add_filter("Wavefront OBJ", &["obj"])
             .pick_file()
-        {
-            scene.object = path.display().to_string();
-            scene.base_dir = Default::default();
-        }
+    {
+        scene.object = path.display().to_string();
+        scene.base_dir = Default::default();
     }
     if let Err(problem) = scene.check() {
         ui.colored_label(ui.visuals().error_fg_color, problem);
@@ -206,12 +205,10 @@ fn scene_setup(app: &mut BurnishApp, ui: &mut egui::Ui) {
     } else if scene != original {
         app.pending_scene = Some(scene);
     }
-    if !dragging {
-        if let Some(scene) = app.pending_scene.take() {
-            let index = app.active;
-            if let Err(e) = app.set_scene(index, scene) {
-                app.notify_error(e.to_string());
-            }
+    if !dragging && let Some(scene) = app.pending_scene.take() {
+        let index = app.active;
+        if let Err(e) = app.set_scene(index, scene) {
+            app.notify_error(e.to_string());
         }
     }
 }
@@ -228,7 +225,7 @@ fn object_label(scene: &Scene) -> String {
 
 fn reconstruction_settings(app: &mut BurnishApp, ui: &mut egui::Ui) {
     ui.heading("Reconstruction");
-    let mut settings = app.basis_settings.clone();
+    let mut settings = app.basis_settings;
     egui::Grid::new("basis_grid").num_columns(2).show(ui, |ui| {
         ui.label("Components K");
         ui.add(

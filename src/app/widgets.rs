@@ -11,18 +11,18 @@ pub fn light_dial(ui: &mut egui::Ui, elevation_deg: &mut f64, azimuth_deg: &mut 
     let centre = rect.center();
     let radius = size * 0.5 - 3.0;
     let mut changed = false;
-    if let Some(pos) = response.interact_pointer_pos() {
-        if response.dragged() || response.clicked() {
-            let d = (pos - centre) / radius;
-            let r = d.length().min(1.0);
-            // The dial is an orthographic view from above: r = cos(elevation).
-            let elevation = r.acos().to_degrees().clamp(1.0, 90.0) as f64;
-            let azimuth = d.x.atan2(d.y).to_degrees() as f64;
-            if (elevation - *elevation_deg).abs() > 1e-6 || (azimuth - *azimuth_deg).abs() > 1e-6 {
-                *elevation_deg = elevation;
-                *azimuth_deg = azimuth;
-                changed = true;
-            }
+    if let Some(pos) = response.interact_pointer_pos()
+        && (response.dragged() || response.clicked())
+    {
+        let d = (pos - centre) / radius;
+        let r = d.length().min(1.0);
+        // The dial is an orthographic view from above: r = cos(elevation).
+        let elevation = r.acos().to_degrees().clamp(1.0, 90.0) as f64;
+        let azimuth = d.x.atan2(d.y).to_degrees() as f64;
+        if (elevation - *elevation_deg).abs() > 1e-6 || (azimuth - *azimuth_deg).abs() > 1e-6 {
+            *elevation_deg = elevation;
+            *azimuth_deg = azimuth;
+            changed = true;
         }
     }
     let painter = ui.painter_at(rect);

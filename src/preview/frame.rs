@@ -240,7 +240,8 @@ impl PreviewFrame {
                 "tangent reference {r:?} must be a finite, non-zero vector"
             ));
         }
-        if !(self.light.intensity >= 0.0) {
+        // Also refuses NaN.
+        if self.light.intensity.is_nan() || self.light.intensity < 0.0 {
             return Err("the light's intensity must not be negative".into());
         }
         if let Some(light) = &self.second_light {

@@ -302,12 +302,12 @@ impl WorkerState {
                 self.recount_skipped();
             }
             Command::MuteView { view, muted } => {
-                if let Some(state) = self.views.get_mut(&view) {
-                    if state.muted != muted {
-                        state.muted = muted;
-                        self.sparse.remove_view(view, changes);
-                        self.resample_view(view, changes);
-                    }
+                if let Some(state) = self.views.get_mut(&view)
+                    && state.muted != muted
+                {
+                    state.muted = muted;
+                    self.sparse.remove_view(view, changes);
+                    self.resample_view(view, changes);
                 }
             }
             Command::ReplacePaint { view, painted } => {
@@ -329,20 +329,20 @@ impl WorkerState {
 
     /// Re-derives every sample of a view from its painted pixels (after removing them).
     fn resample_view(&mut self, view: ViewId, changes: &mut Vec<BinChange>) {
-        if let Some(state) = self.views.get(&view) {
-            if !state.muted {
-                let mut pixels: Vec<_> = state.painted.iter().map(|(&p, &c)| (p, c)).collect();
-                pixels.sort_unstable_by_key(|&(p, _)| p);
-                for (pixel, colour) in pixels {
-                    set_pixel(
-                        &mut self.sparse,
-                        &state.gbuffer,
-                        view,
-                        pixel,
-                        Some(colour),
-                        changes,
-                    );
-                }
+        if let Some(state) = self.views.get(&view)
+            && !state.muted
+        {
+            let mut pixels: Vec<_> = state.painted.iter().map(|(&p, &c)| (p, c)).collect();
+            pixels.sort_unstable_by_key(|&(p, _)| p);
+            for (pixel, colour) in pixels {
+                set_pixel(
+                    &mut self.sparse,
+                    &state.gbuffer,
+                    view,
+                    pixel,
+                    Some(colour),
+                    changes,
+                );
             }
         }
         self.recount_skipped();

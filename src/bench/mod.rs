@@ -267,6 +267,8 @@ impl BenchOptions {
                 Regularization::Auto,
                 Regularization::Gcv,
                 Regularization::Prior { alpha: 0.3 },
+                Regularization::Prior { alpha: 1.0 },
+                Regularization::Prior { alpha: 10.0 },
                 Regularization::Prior { alpha: 30.0 },
                 Regularization::Ridge { lambda: 0.01 },
             ],

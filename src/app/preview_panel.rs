@@ -68,15 +68,18 @@ impl PreviewState {
         let Some(rs) = &self.render_state else {
             return Ok(None);
         };
-        let size = [
-            (rect.width() * pixels_per_point).round().max(1.0) as u32,
-            (rect.height() * pixels_per_point).round().max(1.0) as u32,
-        ];
-        let offset = (pos - rect.min) * pixels_per_point;
-        if offset.x < 0.0 || offset.y < 0.0 {
+        // The texel under the pointer in the target the paint callback draws.
+        let size = crate::preview::physical_size(rect, pixels_per_point);
+        let origin = |v: f32| (v * pixels_per_point).round() as i64;
+        let under = |v: f32| (v * pixels_per_point).floor() as i64;
+        let (x, y) = (
+            under(pos.x) - origin(rect.min.x),
+            under(pos.y) - origin(rect.min.y),
+        );
+        if x < 0 || y < 0 {
             return Ok(None);
         }
-        let pixel = [offset.x as u32, offset.y as u32];
+        let pixel = [x as u32, y as u32];
         let radiance = crate::preview::with_renderer(rs, |renderer| {
             renderer.pick(&rs.device, &rs.queue, frame, size, pixel)
         });

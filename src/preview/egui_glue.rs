@@ -53,17 +53,22 @@ pub fn paint_callback(
     pixels_per_point: f32,
     frame: PreviewFrame,
 ) -> egui::PaintCallback {
-    // The same rounding as egui's ViewportInPixels, so that one texel lands on one pixel.
-    let px = |v: f32| (v * pixels_per_point).round() as i64;
-    let width = (px(rect.max.x) - px(rect.min.x)).max(1) as u32;
-    let height = (px(rect.max.y) - px(rect.min.y)).max(1) as u32;
     egui_wgpu::Callback::new_paint_callback(
         rect,
         PreviewCallback {
             frame,
-            size: [width, height],
+            size: physical_size(rect, pixels_per_point),
         },
     )
+}
+
+/// The size in physical pixels of the preview drawn over `rect`: the same rounding as egui's
+/// `ViewportInPixels`, so that one texel lands on one pixel.
+pub fn physical_size(rect: egui::Rect, pixels_per_point: f32) -> [u32; 2] {
+    let px = |v: f32| (v * pixels_per_point).round() as i64;
+    let width = (px(rect.max.x) - px(rect.min.x)).max(1) as u32;
+    let height = (px(rect.max.y) - px(rect.min.y)).max(1) as u32;
+    [width, height]
 }
 
 /// Creates a preview renderer for passes of `layout` and stores it in `renderer`'s callback

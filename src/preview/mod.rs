@@ -22,7 +22,9 @@ mod egui_glue;
 mod frame;
 mod renderer;
 
-pub use egui_glue::{PreviewCallback, install, install_in, paint_callback, with_renderer};
+pub use egui_glue::{
+    PreviewCallback, install, install_in, paint_callback, physical_size, with_renderer,
+};
 pub use frame::{
     DirectionalLight, MAX_SKY_DIRECTIONS, OrbitCamera, PreviewFrame, PreviewMode, Sky, UNOBSERVED,
 };

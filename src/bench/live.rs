@@ -162,15 +162,8 @@ pub(crate) fn measure(
         let mut table = SparseTable::new(options.paper.policy);
         let mut solver = Solver::new(basis.clone(), options.paper.regularization);
         let mut changes = Vec::new();
-        for s in &set.samples {
-            let key = SampleKey {
-                view: 0,
-                pixel: s.pixel,
-            };
-            table
-                .set_sample(key, s.light_bin, s.view_bin, s.rho, &mut changes)
-                .expect("rendered samples are valid");
-        }
+        set.insert_into(0, &mut table, &mut changes)
+            .expect("rendered samples are valid");
         solver.apply_all(&changes);
         changes.clear();
 
@@ -364,15 +357,8 @@ fn stroke_counts(
     let mut table = SparseTable::new(options.paper.policy);
     let mut solver = Solver::new(basis, options.paper.regularization);
     let mut changes = Vec::new();
-    for s in &set.samples {
-        let key = SampleKey {
-            view: 0,
-            pixel: s.pixel,
-        };
-        table
-            .set_sample(key, s.light_bin, s.view_bin, s.rho, &mut changes)
-            .expect("rendered samples are valid");
-    }
+    set.insert_into(0, &mut table, &mut changes)
+        .expect("rendered samples are valid");
     solver.apply_all(&changes);
     changes.clear();
     let mut counts = StrokeCounts {

@@ -26,7 +26,7 @@ use crate::scene::{
     CameraSettings, GBuffer, LightSettings, Object, SampleCounts, SampleSet, Scene, render_brdf,
     samples_from_image, srgb_decode, srgb_encode,
 };
-use crate::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
+use crate::solver::{Policy, Reconstruction, Regularization, Solver, SparseTable};
 use crate::table::SymTable;
 use analytic_fit::{FitOptions, fit_lambert_ggx};
 use held_out::HeldOut;
@@ -446,15 +446,8 @@ impl PaintedViews {
         let mut table = SparseTable::new(policy);
         let mut changes = Vec::new();
         for (view, set) in self.sets.iter().enumerate() {
-            for s in &set.samples {
-                let key = SampleKey {
-                    view: view as u32,
-                    pixel: s.pixel,
-                };
-                table
-                    .set_sample(key, s.light_bin, s.view_bin, s.rho, &mut changes)
-                    .expect("samples from an image are finite and non-negative");
-            }
+            set.insert_into(view as u32, &mut table, &mut changes)
+                .expect("samples from an image are finite and non-negative");
         }
         (table, changes)
     }

@@ -4,9 +4,9 @@ use super::scene_cmds::scene_gbuffer;
 use crate::basis::{BasisCache, BasisSpec, CacheOutcome};
 use crate::materials::database::DatabaseSpec;
 use crate::scene::samples_from_file;
-use crate::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
+use crate::solver::{Policy, Reconstruction, Regularization, Solver, SparseTable};
 use crate::table::{exr_file::write_table_exr, merl::MerlBrdf};
-use anyhow::{Context, bail};
+use anyhow::bail;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -89,15 +89,10 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
         let (_, gbuffer) = scene_gbuffer(&arg.scene)?;
         let geometry_ms = start.elapsed().as_secs_f64() * 1e3;
         let set = samples_from_file(&gbuffer, &arg.painting)?;
-        for s in &set.samples {
-            let key = SampleKey {
-                view: view as u32,
-                pixel: s.pixel,
-            };
-            table
-                .set_sample(key, s.light_bin, s.view_bin, s.rho, &mut changes)
-                .with_context(|| format!("{}: pixel {}", arg.painting.display(), s.pixel))?;
-        }
+        set.insert_into(view as u32, &mut table, &mut changes)
+            .map_err(|(pixel, e)| {
+                anyhow::anyhow!("{}: pixel {pixel}: {e}", arg.painting.display())
+            })?;
         let c = set.counts;
         println!(
             "view {view}: {} = {}\n  samples used {}, skipped {} (background {}, shadow {}, grazing {}, invalid paint {})\n  geometry {geometry_ms:.0} ms, painting {:.0} ms",

@@ -5,6 +5,7 @@ use super::gbuffer::GBuffer;
 use super::image_files::read_painting;
 use crate::error::Result;
 use crate::image_io::RgbImage;
+use crate::solver::{BinChange, SampleKey, SampleRejected, SparseTable};
 use crate::table::DirIndex;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -81,6 +82,29 @@ impl SampleCounts {
 pub struct SampleSet {
     pub samples: Vec<Sample>,
     pub counts: SampleCounts,
+}
+
+impl SampleSet {
+    /// Sets every sample in `table` as view `view`'s, keyed by its pixel; the bins that
+    /// change are appended to `changes`. Stops at the first sample the table refuses and
+    /// names its pixel.
+    pub fn insert_into(
+        &self,
+        view: u32,
+        table: &mut SparseTable,
+        changes: &mut Vec<BinChange>,
+    ) -> Result<(), (u32, SampleRejected)> {
+        for s in &self.samples {
+            let key = SampleKey {
+                view,
+                pixel: s.pixel,
+            };
+            table
+                .set_sample(key, s.light_bin, s.view_bin, s.rho, changes)
+                .map_err(|e| (s.pixel, e))?;
+        }
+        Ok(())
+    }
 }
 
 /// The sample one painted pixel gives, or why it gives none. `radiance` is linear RGB.

@@ -48,7 +48,7 @@ pub enum GrooveProfile {
 /// Tangent and bitangent of the frame obtained by rotating (x, y, z) minimally so that z
 /// lands on `n`, so that the base's tangent stays as close as possible to the macro tangent.
 #[inline]
-pub(crate) fn facet_frame(n: DVec3) -> (DVec3, DVec3) {
+pub fn facet_frame(n: DVec3) -> (DVec3, DVec3) {
     let k = 1.0 / (1.0 + n.z);
     let xy = -n.x * n.y * k;
     (

@@ -1,8 +1,11 @@
 //! Analytic and bi-scale BRDFs, and the reproducible database the basis is learnt from.
 
 pub mod biscale;
+pub mod classic;
 pub mod database;
+pub mod layered;
 pub mod models;
+pub mod principled;
 
 use crate::table::{
     DIRECTIONS, DirIndex, PHI_BINS, SymTable, THETA_BINS, bin_centre, phi_centre, split_direction,
@@ -71,18 +74,60 @@ fn isotropic_slices(brdf: &dyn Brdf) -> Vec<[f32; 3]> {
 
 /// Evaluates a BRDF at the bin centres of every unordered direction pair.
 pub fn tabulate(brdf: &dyn Brdf) -> SymTable {
+    SymTable::from_pairs(tabulate_mapped(brdf, |_, _, rho| rho)).expect("PAIRS values")
+}
+
+/// `map(t_l, t_v, ρ)` of every unordered pair, in pair order, where ρ is the BRDF at the
+/// pair's bin centres and t_l, t_v are the polar bins of its two directions. An isotropic
+/// BRDF has only 45·45·36 distinct values, so `map` runs that many times rather than
+/// 1,313,010 (the basis build maps every material of its database on every pass).
+pub fn tabulate_mapped(
+    brdf: &dyn Brdf,
+    map: impl Fn(usize, usize, [f32; 3]) -> [f32; 3] + Sync,
+) -> Vec<[f32; 3]> {
+    let mut values = vec![[0f32; 3]; crate::table::PAIRS];
     if brdf.is_isotropic() {
         let slices = isotropic_slices(brdf);
-        SymTable::from_fn(|lo, hi| {
+        let mapped: Vec<[f32; 3]> = slices
+            .par_iter()
+            .enumerate()
+            .with_min_len(1024)
+            .map(|(i, &rho)| {
+                let tt = i / PHI_BINS;
+                map(tt / THETA_BINS, tt % THETA_BINS, rho)
+            })
+            .collect();
+        fill_pairs(&mut values, |lo, hi| {
             let (t_l, p_l) = split_direction(lo);
             let (t_v, p_v) = split_direction(hi);
             let dp = (p_v + PHI_BINS - p_l) % PHI_BINS;
-            slices[(t_l * THETA_BINS + t_v) * PHI_BINS + dp]
-        })
+            mapped[(t_l * THETA_BINS + t_v) * PHI_BINS + dp]
+        });
     } else {
         let centres: Vec<DVec3> = (0..DIRECTIONS as DirIndex).map(bin_centre).collect();
-        SymTable::from_fn(|lo, hi| to_rgb32(brdf.eval(centres[lo as usize], centres[hi as usize])))
+        fill_pairs(&mut values, |lo, hi| {
+            let rho = to_rgb32(brdf.eval(centres[lo as usize], centres[hi as usize]));
+            map(lo as usize / PHI_BINS, hi as usize / PHI_BINS, rho)
+        });
     }
+    values
+}
+
+/// Sets every pair's value from `f(lo, hi)`, in parallel over the runs of pairs that share
+/// `hi` (pairs (0..=hi, hi) are stored together), so no pair index is ever decoded.
+fn fill_pairs(values: &mut [[f32; 3]], f: impl Fn(DirIndex, DirIndex) -> [f32; 3] + Sync) {
+    let mut runs: Vec<(usize, &mut [[f32; 3]])> = Vec::with_capacity(DIRECTIONS);
+    let mut rest = values;
+    for hi in 0..DIRECTIONS {
+        let (run, tail) = rest.split_at_mut(hi + 1);
+        runs.push((hi, run));
+        rest = tail;
+    }
+    runs.into_par_iter().with_min_len(16).for_each(|(hi, run)| {
+        for (lo, out) in run.iter_mut().enumerate() {
+            *out = f(lo as DirIndex, hi as DirIndex);
+        }
+    });
 }
 
 /// Directional albedo ∫ ρ(l, v) cos θ_v dω_v for light direction `l`, by a midpoint rule

@@ -12,11 +12,11 @@ const MIN_COS: f64 = 1e-9;
 /// Smallest roughness α a lobe is evaluated with.
 const MIN_ALPHA: f64 = 1e-4;
 
-fn above(l: DVec3, v: DVec3) -> bool {
+pub(crate) fn above(l: DVec3, v: DVec3) -> bool {
     l.z > 0.0 && v.z > 0.0
 }
 
-fn scale3(c: [f64; 3], s: f64) -> [f64; 3] {
+pub(crate) fn scale3(c: [f64; 3], s: f64) -> [f64; 3] {
     c.map(|x| x * s)
 }
 
@@ -39,7 +39,7 @@ fn sin_cos(rotation: f64) -> (f64, f64) {
 
 /// cos θ_d = l·h = v·h, computed from l·v so that it is bit-for-bit symmetric.
 #[inline]
-fn cos_half_difference(l: DVec3, v: DVec3) -> f64 {
+pub(crate) fn cos_half_difference(l: DVec3, v: DVec3) -> f64 {
     (0.5 + 0.5 * l.dot(v)).max(0.0).sqrt()
 }
 
@@ -112,6 +112,12 @@ impl Distribution {
                 }
             }
         }
+    }
+
+    /// D of an isotropic lobe of roughness α at the half-vector cosine `cos_h`.
+    pub(crate) fn isotropic_d(self, cos_h: f64, alpha: f64) -> f64 {
+        let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
+        self.d(sin_h, 0.0, cos_h, alpha, alpha)
     }
 
     /// Smith Λ(w) for a unit direction with components (wx, wy) in the anisotropy frame.
@@ -264,6 +270,24 @@ impl Microfacet {
             fresnel,
             tint: [1.0; 3],
         }
+    }
+}
+
+impl Microfacet {
+    /// D·G₂/(4 cos θ_l cos θ_v) alone, without Fresnel or tint: the lobe's shape, for
+    /// models that bring their own reflectance.
+    pub(crate) fn eval_unit_fresnel(&self, l: DVec3, v: DVec3) -> f64 {
+        if !above(l, v) {
+            return 0.0;
+        }
+        microfacet_dg(
+            self.distribution,
+            l,
+            v,
+            self.alpha_x,
+            self.alpha_y,
+            self.rotation,
+        )
     }
 }
 

@@ -1,18 +1,23 @@
-//! Building the basis: generate the database, map it, and take its leading principal
-//! components by randomized subspace iteration (Halko, Martinsson & Tropp 2011).
+//! Building the basis: the leading principal components of the mapped database by randomized
+//! subspace iteration (Halko, Martinsson & Tropp 2011), streamed.
 //!
-//! Memory: the mapped database is held once, as f16 in pair-major order (PAIRS × observations,
-//! 2 bytes each: 2.4 GB for the default 300 materials), never as f32 or f64. Products with it run
-//! over fixed blocks of rows, converted to f64 one block per thread at a time, so the sums that
-//! accumulate are f64 and the result does not depend on the number of threads.
+//! The database is never held: every pass over it regenerates its materials (they depend on
+//! (seed, index) alone), a batch at a time, so memory does not grow with the database's size.
+//! Pass 1 gathers each entry's mean, spread and range and the sketch Y = ÃΩ; every further
+//! pass computes Z = ÃᵀQ for the current orthonormal range Q and, but for the last,
+//! Y = ÃZ; the last pass's Z gives the small matrix QᵀÃ whose SVD finishes the basis. Ã is
+//! the centred, mapped database with each row weighted by √(pair multiplicity).
+//!
+//! Every product runs over fixed blocks of table rows, and every sum across blocks is taken in
+//! block order, in f64, so the result does not depend on the number of threads.
 
-use super::{Basis, MAP_EPSILON, cos_weight_polar};
+use super::{Basis, MAP_EPSILON, MIN_RESIDUAL_VARIANCE, cos_weight_polar};
+use crate::materials::Brdf;
 use crate::materials::database::{DatabaseSpec, material};
-use crate::materials::tabulate;
-use crate::table::{PAIRS, PHI_BINS, SymTable};
+use crate::materials::tabulate_mapped;
+use crate::table::PAIRS;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef, Par, Side};
-use half::f16;
 use rand::SeedableRng;
 use rayon::prelude::*;
 
@@ -31,6 +36,8 @@ pub struct BasisSpec {
 impl BasisSpec {
     /// Largest K supported.
     pub const MAX_COMPONENTS: usize = 100;
+    /// Largest database supported.
+    pub const MAX_MATERIALS: usize = 20_000;
     /// Default K, as in the paper.
     pub const DEFAULT_COMPONENTS: usize = 20;
 
@@ -76,269 +83,176 @@ pub struct BuildProgress {
     pub total: usize,
 }
 
-/// Rows of the database converted to f64 together; also the unit of deterministic reduction.
-const BLOCK_ROWS: usize = 2048;
-/// Materials tabulated together before being scattered into the pair-major matrix.
-const MATERIAL_BATCH: usize = 8;
+/// Table rows processed together; also the unit of deterministic reduction.
+const BLOCK_ROWS: usize = 4096;
+/// Materials tabulated together on each pass.
+const MATERIAL_BATCH: usize = 16;
+/// Names of the passes, for progress.
+const PASS_NAMES: [&str; 6] = [
+    "pass 1: statistics and sketch",
+    "pass 2: subspace iteration",
+    "pass 3: subspace iteration",
+    "pass 4: subspace iteration",
+    "pass 5: subspace iteration",
+    "pass 6: subspace iteration",
+];
 
-/// The mapped, pair-major database.
-struct MappedDatabase {
-    observations: usize,
-    /// PAIRS × observations, mapped and not centred.
-    values: Vec<f16>,
+/// Where the database's materials come from: index → BRDF, deterministic.
+pub type MaterialSource<'a> = &'a (dyn Fn(usize) -> Box<dyn Brdf> + Sync);
+
+/// ln(ρc + ε) of every pair of one material (c as in the map, ε = [`MAP_EPSILON`]).
+fn log_table(brdf: &dyn Brdf) -> Vec<[f32; 3]> {
+    tabulate_mapped(brdf, |t_l, t_v, rho| {
+        let c = cos_weight_polar(t_l, t_v);
+        rho.map(|r| ((r.max(0.0) as f64 * c + MAP_EPSILON).ln()) as f32)
+    })
+}
+
+/// Per-pair running statistics of ln(ρc + ε) over the database (Chan et al.'s pairwise
+/// update of mean and sum of squared deviations, one batch at a time).
+struct EntryStats {
+    count: f64,
     mean: Vec<f64>,
-    /// Σ over pairs of w·Σ_j (m_j − mean)²: the total sum of squares of the full table.
-    total_sum_of_squares: f64,
-    reference: Vec<f32>,
+    m2: Vec<f64>,
     lower: Vec<f32>,
     upper: Vec<f32>,
 }
 
-fn pair_polar_bins() -> Vec<(u8, u8)> {
-    let mut out = Vec::with_capacity(PAIRS);
-    crate::table::for_each_pair(|_, lo, hi| {
-        out.push((
-            (lo as usize / PHI_BINS) as u8,
-            (hi as usize / PHI_BINS) as u8,
-        ));
-    });
-    out
+impl EntryStats {
+    fn new() -> Self {
+        Self {
+            count: 0.0,
+            mean: vec![0.0; PAIRS],
+            m2: vec![0.0; PAIRS],
+            lower: vec![f32::INFINITY; PAIRS],
+            upper: vec![f32::NEG_INFINITY; PAIRS],
+        }
+    }
 }
 
-fn generate(spec: &DatabaseSpec, progress: &(dyn Fn(BuildProgress) + Sync)) -> MappedDatabase {
-    let n = 3 * spec.size;
-    let polar = pair_polar_bins();
-    let mut values = vec![f16::ZERO; PAIRS * n];
-    let report = |done| {
-        progress(BuildProgress {
-            stage: "tabulating materials",
-            done,
-            total: spec.size,
-        })
-    };
-    report(0);
-    for batch_start in (0..spec.size).step_by(MATERIAL_BATCH) {
-        let batch_end = (batch_start + MATERIAL_BATCH).min(spec.size);
-        let tables: Vec<SymTable> = (batch_start..batch_end)
-            .into_par_iter()
-            .map(|i| tabulate(&*material(spec.seed, i).brdf))
-            .collect();
-        values
-            .par_chunks_mut(n * BLOCK_ROWS)
-            .enumerate()
-            .for_each(|(block, chunk)| {
-                for (r, row) in chunk.chunks_mut(n).enumerate() {
-                    let pair = block * BLOCK_ROWS + r;
-                    let (t_l, t_v) = polar[pair];
-                    let c = cos_weight_polar(t_l as usize, t_v as usize) as f32;
-                    for (j, table) in tables.iter().enumerate() {
-                        let rgb = table.pairs()[pair];
-                        for ch in 0..3 {
-                            // f16 saturates to infinity past 65,504; no database value is that bright.
-                            row[3 * (batch_start + j) + ch] =
-                                f16::from_f32((rgb[ch] * c).min(65_000.0));
-                        }
-                    }
-                }
-            });
-        report(batch_end);
+/// √(pair multiplicity): off-diagonal pairs stand for two entries of the full table.
+fn row_weights() -> Vec<f64> {
+    (0..PAIRS)
+        .map(|p| crate::table::pair_multiplicity(p).sqrt())
+        .collect()
+}
+
+fn blocks() -> usize {
+    PAIRS.div_ceil(BLOCK_ROWS)
+}
+
+fn block_range(b: usize) -> std::ops::Range<usize> {
+    b * BLOCK_ROWS..((b + 1) * BLOCK_ROWS).min(PAIRS)
+}
+
+/// One batch of materials, mapped: `tables[j][pair][channel]` = ln(ρc + ε).
+struct Batch {
+    /// Index of the batch's first observation column (3 per material).
+    first_column: usize,
+    tables: Vec<Vec<[f32; 3]>>,
+}
+
+impl Batch {
+    fn columns(&self) -> usize {
+        3 * self.tables.len()
     }
 
-    // Reference = per-pair median of ρc; then map in place and record mean and range.
-    // ρc ≥ 0 is held as f16, whose bit patterns sort like their values when non-negative, and
-    // whose 65,536 values make ln(ρc + ε) a table look-up instead of a billion logarithms.
+    /// Rows `range` of the batch as a (rows × columns) matrix: √w·(m − mean), or √w·m when
+    /// `mean` is `None`.
+    fn block(
+        &self,
+        range: std::ops::Range<usize>,
+        weights: &[f64],
+        mean: Option<&[f64]>,
+    ) -> Mat<f64> {
+        Mat::from_fn(range.len(), self.columns(), |r, col| {
+            let pair = range.start + r;
+            let m = self.tables[col / 3][pair][col % 3] as f64;
+            weights[pair] * (m - mean.map_or(0.0, |mean| mean[pair]))
+        })
+    }
+}
+
+/// Runs `work` on every batch of the database in order, tabulating each batch in parallel.
+fn for_each_batch(
+    source: MaterialSource,
+    size: usize,
+    stage: &'static str,
+    progress: &(dyn Fn(BuildProgress) + Sync),
+    mut work: impl FnMut(&Batch),
+) {
     progress(BuildProgress {
-        stage: "mapping",
+        stage,
         done: 0,
-        total: 1,
+        total: size,
     });
-    let log_table: Vec<f64> = (0..=u16::MAX)
-        .map(|bits| (f16::from_bits(bits).to_f64().max(0.0) + MAP_EPSILON).ln())
-        .collect();
-    let mut reference = vec![0f32; PAIRS];
-    let mut lower = vec![0f32; PAIRS];
-    let mut upper = vec![0f32; PAIRS];
-    let mut mean = vec![0f64; PAIRS];
-    values
-        .par_chunks_mut(n)
-        .zip(reference.par_iter_mut())
-        .zip(lower.par_iter_mut())
-        .zip(upper.par_iter_mut())
-        .zip(mean.par_iter_mut())
-        .with_min_len(256)
-        .for_each_init(
-            || vec![0u16; n],
-            |scratch, ((((row, reference), lower), upper), mean)| {
-                for (s, v) in scratch.iter_mut().zip(row.iter()) {
-                    *s = v.to_bits();
-                }
-                let median = median_of_nonnegative_f16(scratch);
-                *reference = median;
-                let log_reference = (median as f64 + MAP_EPSILON).ln();
-                let (mut lo, mut hi, mut sum) = (f32::INFINITY, f32::NEG_INFINITY, 0f64);
-                for v in row.iter_mut() {
-                    let stored = f16::from_f64(log_table[v.to_bits() as usize] - log_reference);
-                    *v = stored;
-                    let m = stored.to_f32();
-                    lo = lo.min(m);
-                    hi = hi.max(m);
-                    sum += m as f64;
-                }
-                *lower = lo;
-                *upper = hi;
-                *mean = sum / n as f64;
-            },
-        );
-    // Summed per block, then in block order, so the figure doesn't depend on threads.
-    let total_sum_of_squares = values
-        .par_chunks(n * BLOCK_ROWS)
-        .enumerate()
-        .map(|(b, block)| {
-            let mut sum = 0f64;
-            for (r, row) in block.chunks(n).enumerate() {
-                let pair = b * BLOCK_ROWS + r;
-                let m = mean[pair];
-                let squares: f64 = row.iter().map(|v| (v.to_f64() - m).powi(2)).sum();
-                sum += crate::table::pair_multiplicity(pair) * squares;
-            }
-            sum
-        })
-        .collect::<Vec<f64>>()
-        .iter()
-        .sum();
-    progress(BuildProgress {
-        stage: "mapping",
-        done: 1,
-        total: 1,
-    });
-    MappedDatabase {
-        observations: n,
-        values,
-        mean,
-        total_sum_of_squares,
-        reference,
-        lower,
-        upper,
-    }
-}
-
-/// The median of non-negative f16 values given as bit patterns (the mean of the two middle
-/// ones for an even count); reorders them.
-fn median_of_nonnegative_f16(bits: &mut [u16]) -> f32 {
-    let n = bits.len();
-    let mid = n / 2;
-    let (left, upper_mid, _) = bits.select_nth_unstable(mid);
-    let upper_mid = f16::from_bits(*upper_mid).to_f32();
-    if n % 2 == 1 {
-        upper_mid
-    } else {
-        let lower_mid = f16::from_bits(left.iter().copied().max().unwrap_or(0)).to_f32();
-        0.5 * (lower_mid + upper_mid)
-    }
-}
-
-impl MappedDatabase {
-    /// Loads rows `[start, start + rows)` transposed, as the columns of `out`
-    /// (observations × rows): √w·(m − mean), each pair's values contiguous.
-    fn block_transposed(&self, start: usize, rows: usize, out: &mut Mat<f64>, weights: &[f64]) {
-        use half::slice::HalfFloatSliceExt;
-        let n = self.observations;
-        for r in 0..rows {
-            let pair = start + r;
-            let (w, mean) = (weights[pair], self.mean[pair]);
-            let column = out
-                .col_mut(r)
-                .try_as_col_major_mut()
-                .expect("a freshly allocated matrix is column-major")
-                .as_slice_mut();
-            self.values[pair * n..(pair + 1) * n].convert_to_f64_slice(column);
-            for v in column.iter_mut() {
-                *v = w * (*v - mean);
-            }
-        }
-    }
-
-    fn blocks(&self) -> usize {
-        PAIRS.div_ceil(BLOCK_ROWS)
-    }
-
-    /// Z = Ãᵀ Ã Ω in one pass over the data, summed block by block in a fixed order.
-    fn gram_product(&self, omega: MatRef<f64>, weights: &[f64]) -> Mat<f64> {
-        let (n, l) = (self.observations, omega.ncols());
-        let partials: Vec<Mat<f64>> = (0..self.blocks())
+    for start in (0..size).step_by(MATERIAL_BATCH) {
+        let end = (start + MATERIAL_BATCH).min(size);
+        let tables: Vec<Vec<[f32; 3]>> = (start..end)
             .into_par_iter()
-            .map_init(
-                || {
-                    (
-                        Mat::<f64>::zeros(n, BLOCK_ROWS),
-                        Mat::<f64>::zeros(BLOCK_ROWS, l),
-                    )
-                },
-                |(xt, y), b| {
-                    let start = b * BLOCK_ROWS;
-                    let rows = BLOCK_ROWS.min(PAIRS - start);
-                    self.block_transposed(start, rows, xt, weights);
-                    let xt = xt.as_ref().subcols(0, rows);
-                    let mut yb = y.as_mut().subrows_mut(0, rows);
-                    matmul(
-                        yb.as_mut(),
-                        Accum::Replace,
-                        xt.transpose(),
-                        omega,
-                        1.0,
-                        Par::Seq,
-                    );
-                    let mut z = Mat::<f64>::zeros(n, l);
-                    matmul(z.as_mut(), Accum::Replace, xt, yb.as_ref(), 1.0, Par::Seq);
-                    z
-                },
-            )
+            .map(|i| log_table(source(i).as_ref()))
             .collect();
-        let mut z = Mat::<f64>::zeros(n, l);
-        for p in &partials {
-            z += p;
-        }
-        z
-    }
-
-    /// Y = Ã Ω (PAIRS × l), written block by block.
-    fn product(&self, omega: MatRef<f64>, weights: &[f64]) -> Mat<f64> {
-        let (n, l) = (self.observations, omega.ncols());
-        let parts: Vec<Mat<f64>> = (0..self.blocks())
-            .into_par_iter()
-            .map_init(
-                || Mat::<f64>::zeros(n, BLOCK_ROWS),
-                |xt, b| {
-                    let start = b * BLOCK_ROWS;
-                    let rows = BLOCK_ROWS.min(PAIRS - start);
-                    self.block_transposed(start, rows, xt, weights);
-                    let mut y = Mat::<f64>::zeros(rows, l);
-                    let xt = xt.as_ref().subcols(0, rows);
-                    matmul(
-                        y.as_mut(),
-                        Accum::Replace,
-                        xt.transpose(),
-                        omega,
-                        1.0,
-                        Par::Seq,
-                    );
-                    y
-                },
-            )
-            .collect();
-        let mut y = Mat::<f64>::zeros(PAIRS, l);
-        for (b, part) in parts.iter().enumerate() {
-            y.as_mut()
-                .subrows_mut(b * BLOCK_ROWS, part.nrows())
-                .copy_from(part);
-        }
-        y
+        work(&Batch {
+            first_column: 3 * start,
+            tables,
+        });
+        progress(BuildProgress {
+            stage,
+            done: end,
+            total: size,
+        });
     }
 }
 
-/// Orthonormal columns spanning those of `a` (thin QR).
-fn orthonormalize(a: &Mat<f64>) -> Mat<f64> {
-    a.qr().compute_thin_Q()
+/// Orthonormal columns spanning those of the tall matrix `y`, by Cholesky–QR twice in its
+/// eigen form: G = YᵀY summed block by block in block order, Y ← Y·V·S^-½. A library QR of
+/// a tall matrix splits its work by thread count, and with it the rounding; this doesn't.
+fn orthonormalize(y: &mut Mat<f64>) {
+    let l = y.ncols();
+    for _ in 0..2 {
+        let partials: Vec<Mat<f64>> = (0..blocks())
+            .into_par_iter()
+            .map(|b| {
+                let range = block_range(b);
+                let rows = y.as_ref().subrows(range.start, range.len());
+                let mut g = Mat::<f64>::zeros(l, l);
+                matmul(
+                    g.as_mut(),
+                    Accum::Replace,
+                    rows.transpose(),
+                    rows,
+                    1.0,
+                    Par::Seq,
+                );
+                g
+            })
+            .collect();
+        let mut gram = Mat::<f64>::zeros(l, l);
+        for g in &partials {
+            gram += g;
+        }
+        let eigen = gram
+            .self_adjoint_eigen(Side::Lower)
+            .expect("the eigendecomposition of a small symmetric matrix converges");
+        let (vectors, values) = (eigen.U(), eigen.S().column_vector());
+        let top = values[l - 1].max(f64::MIN_POSITIVE);
+        // A direction the sketch doesn't reach gets a huge but finite scale, not a NaN.
+        let transform = Mat::<f64>::from_fn(l, l, |r, c| {
+            vectors[(r, c)] / values[c].max(top * 1e-15).sqrt()
+        });
+        y.par_row_chunks_mut(BLOCK_ROWS).for_each(|mut rows| {
+            let mut out = Mat::<f64>::zeros(rows.nrows(), l);
+            matmul(
+                out.as_mut(),
+                Accum::Replace,
+                rows.as_ref(),
+                transform.as_ref(),
+                1.0,
+                Par::Seq,
+            );
+            rows.copy_from(&out);
+        });
+    }
 }
 
 /// Standard normal draws, seeded (Box–Muller keeps the dependency list short).
@@ -353,56 +267,185 @@ fn gaussian_matrix(rows: usize, cols: usize, seed: u64) -> Mat<f64> {
     })
 }
 
+/// Z = (batch columns)ᵀ Q over all rows, summed block by block in block order.
+fn batch_transpose_product(
+    batch: &Batch,
+    q: MatRef<f64>,
+    weights: &[f64],
+    mean: &[f64],
+) -> Mat<f64> {
+    let (cols, l) = (batch.columns(), q.ncols());
+    let partials: Vec<Mat<f64>> = (0..blocks())
+        .into_par_iter()
+        .map(|b| {
+            let range = block_range(b);
+            let a = batch.block(range.clone(), weights, Some(mean));
+            let mut z = Mat::<f64>::zeros(cols, l);
+            matmul(
+                z.as_mut(),
+                Accum::Replace,
+                a.transpose(),
+                q.subrows(range.start, range.len()),
+                1.0,
+                Par::Seq,
+            );
+            z
+        })
+        .collect();
+    let mut z = Mat::<f64>::zeros(cols, l);
+    for p in &partials {
+        z += p;
+    }
+    z
+}
+
+/// y += (batch block) · z, every row block on its own (each owns its rows of y).
+fn accumulate_product(
+    y: &mut Mat<f64>,
+    batch: &Batch,
+    z: MatRef<f64>,
+    weights: &[f64],
+    mean: Option<&[f64]>,
+) {
+    let l = y.ncols();
+    let parts: Vec<(usize, Mat<f64>)> = (0..blocks())
+        .into_par_iter()
+        .map(|b| {
+            let range = block_range(b);
+            let a = batch.block(range.clone(), weights, mean);
+            let mut part = Mat::<f64>::zeros(range.len(), l);
+            matmul(part.as_mut(), Accum::Replace, a.as_ref(), z, 1.0, Par::Seq);
+            (range.start, part)
+        })
+        .collect();
+    for (start, part) in parts {
+        let mut rows = y.as_mut().subrows_mut(start, part.nrows());
+        rows += &part;
+    }
+}
+
 /// Builds the basis described by `spec`, reporting progress through `progress`.
 pub fn build_basis(spec: &BasisSpec, progress: &(dyn Fn(BuildProgress) + Sync)) -> Basis {
+    let seed = spec.database.seed;
+    let source = move |i: usize| material(seed, i).brdf;
+    build_basis_from(&source, spec, progress)
+}
+
+/// Builds a basis of `spec.components` components from `spec.database.size` materials of
+/// `source` (the seed of `spec` seeds the random sketch only).
+pub fn build_basis_from(
+    source: MaterialSource,
+    spec: &BasisSpec,
+    progress: &(dyn Fn(BuildProgress) + Sync),
+) -> Basis {
     assert!(
         (1..=BasisSpec::MAX_COMPONENTS).contains(&spec.components),
         "K must be in 1..={}",
         BasisSpec::MAX_COMPONENTS
     );
-    let db = generate(&spec.database, progress);
-    let n = db.observations;
+    let size = spec.database.size;
+    assert!((1..=BasisSpec::MAX_MATERIALS).contains(&size));
+    let n = 3 * size;
     // A database with fewer observations than K can't span K components.
     let k = spec.components.min(n);
     let l = (spec.components + spec.oversampling).min(n);
-    // √(multiplicity): off-diagonal pairs stand for two entries of the full table.
-    let weights: Vec<f64> = (0..PAIRS)
-        .map(|p| {
-            let (lo, hi) = crate::table::pair_directions(p);
-            if lo == hi {
-                1.0
-            } else {
-                std::f64::consts::SQRT_2
-            }
-        })
-        .collect();
+    let weights = row_weights();
+    let passes = 1 + spec.power_iterations.clamp(1, PASS_NAMES.len() - 1);
+    let omega = gaussian_matrix(n, l, spec.database.seed);
 
-    let total = spec.power_iterations + 1;
-    let mut omega = orthonormalize(&gaussian_matrix(n, l, spec.database.seed));
-    for it in 0..spec.power_iterations {
-        progress(BuildProgress {
-            stage: "power iterations",
-            done: it,
-            total,
-        });
-        omega = orthonormalize(&db.gram_product(omega.as_ref(), &weights));
-    }
-    progress(BuildProgress {
-        stage: "power iterations",
-        done: spec.power_iterations,
-        total,
+    // Pass 1: per-pair statistics, and the uncentred sketch ÃΩ (centred afterwards).
+    let mut stats = EntryStats::new();
+    let mut y = Mat::<f64>::zeros(PAIRS, l);
+    for_each_batch(source, size, PASS_NAMES[0], progress, |batch| {
+        let cols = batch.columns();
+        let omega_b = omega.as_ref().subrows(batch.first_column, cols);
+        accumulate_product(&mut y, batch, omega_b, &weights, None);
+        let nb = cols as f64;
+        let na = stats.count;
+        stats
+            .mean
+            .par_iter_mut()
+            .zip(stats.m2.par_iter_mut())
+            .zip(stats.lower.par_iter_mut())
+            .zip(stats.upper.par_iter_mut())
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(pair, (((mean, m2), lower), upper))| {
+                let (mut sum, mut lo, mut hi) = (0f64, *lower, *upper);
+                for t in &batch.tables {
+                    for &v in &t[pair] {
+                        sum += v as f64;
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                }
+                let mean_b = sum / nb;
+                let mut m2_b = 0f64;
+                for t in &batch.tables {
+                    for &v in &t[pair] {
+                        m2_b += (v as f64 - mean_b).powi(2);
+                    }
+                }
+                let delta = mean_b - *mean;
+                let total = na + nb;
+                *mean += delta * nb / total;
+                *m2 += m2_b + delta * delta * na * nb / total;
+                *lower = lo;
+                *upper = hi;
+            });
+        stats.count += nb;
     });
+    // Centre: ÃΩ = √w·(M − mean·1ᵀ)Ω = √w·MΩ − √w·mean·(1ᵀΩ).
+    let omega_sums: Vec<f64> = (0..l).map(|c| omega.col(c).iter().sum()).collect();
+    y.par_row_chunks_mut(BLOCK_ROWS)
+        .enumerate()
+        .for_each(|(b, mut rows)| {
+            for r in 0..rows.nrows() {
+                let pair = b * BLOCK_ROWS + r;
+                let shift = weights[pair] * stats.mean[pair];
+                for c in 0..l {
+                    rows[(r, c)] -= shift * omega_sums[c];
+                }
+            }
+        });
+    orthonormalize(&mut y);
+    let mut q = y;
 
-    // Rayleigh–Ritz: Y = ÃΩ, YᵀY = V Λ Vᵀ, U = Y V Λ^{-1/2}.
-    let y = db.product(omega.as_ref(), &weights);
+    // Subspace iteration; the last pass keeps Z = ÃᵀQ for the Rayleigh–Ritz step.
+    let mut z_all = Mat::<f64>::zeros(n, l);
+    for pass in 1..passes {
+        let last = pass + 1 == passes;
+        let mut y_next = if last {
+            Mat::<f64>::zeros(0, 0)
+        } else {
+            Mat::<f64>::zeros(PAIRS, l)
+        };
+        for_each_batch(source, size, PASS_NAMES[pass], progress, |batch| {
+            let z = batch_transpose_product(batch, q.as_ref(), &weights, &stats.mean);
+            if last {
+                z_all
+                    .as_mut()
+                    .subrows_mut(batch.first_column, batch.columns())
+                    .copy_from(&z);
+            } else {
+                accumulate_product(&mut y_next, batch, z.as_ref(), &weights, Some(&stats.mean));
+            }
+        });
+        if !last {
+            orthonormalize(&mut y_next);
+            q = y_next;
+        }
+    }
+
+    // Rayleigh–Ritz: B = QᵀÃ = Zᵀ; BBᵀ = ZᵀZ = V S² Vᵀ; the components are QV.
     let mut gram = Mat::<f64>::zeros(l, l);
     matmul(
         gram.as_mut(),
         Accum::Replace,
-        y.transpose(),
-        y.as_ref(),
+        z_all.transpose(),
+        z_all.as_ref(),
         1.0,
-        Par::rayon(0),
+        Par::Seq,
     );
     let eigen = gram
         .self_adjoint_eigen(Side::Lower)
@@ -410,55 +453,81 @@ pub fn build_basis(spec: &BasisSpec, progress: &(dyn Fn(BuildProgress) + Sync)) 
     let (vectors, values) = (eigen.U(), eigen.S().column_vector());
     // faer sorts eigenvalues in ascending order; components are taken largest first.
     let order: Vec<usize> = (0..l).rev().take(k).collect();
-    let lambda_floor = values[l - 1].max(f64::MIN_POSITIVE) * 1e-14;
-    let mut projector = Mat::<f64>::zeros(l, k);
+    let mut rotation = Mat::<f64>::zeros(l, k);
+    let mut squared_singular = vec![0.0; k];
     let mut variances = vec![0.0; k];
+    let floor = values[l - 1].max(f64::MIN_POSITIVE) * 1e-14;
     for (col, &i) in order.iter().enumerate() {
-        let lambda = values[i].max(lambda_floor);
-        variances[col] = lambda / n as f64;
+        squared_singular[col] = values[i].max(floor);
+        variances[col] = squared_singular[col] / n as f64;
         for r in 0..l {
-            projector[(r, col)] = vectors[(r, i)] / lambda.sqrt();
+            rotation[(r, col)] = vectors[(r, i)];
         }
     }
-    let kept: f64 = order.iter().map(|&i| values[i].max(0.0)).sum();
-    let residual_variance = ((db.total_sum_of_squares - kept)
-        / (n as f64 * crate::table::ENTRIES as f64))
-        .max(super::MIN_RESIDUAL_VARIANCE);
-    progress(BuildProgress {
-        stage: "power iterations",
-        done: total,
-        total,
-    });
 
-    let kk = k;
-    let mut data = vec![0f32; Basis::stored_len(kk)];
-    let (head, rows) = data.split_at_mut(4 * PAIRS);
-    head[..PAIRS].copy_from_slice(&db.reference);
-    for (dst, m) in head[PAIRS..2 * PAIRS].iter_mut().zip(&db.mean) {
-        *dst = *m as f32;
+    // Reference: e^mean − ε, so that the stored mean of the mapped values is (nearly) zero
+    // and the per-pair scale sits where the database's values do.
+    let reference: Vec<f64> = stats
+        .mean
+        .iter()
+        .map(|&m| (m.exp() - MAP_EPSILON).max(0.0))
+        .collect();
+    let mut data = vec![0f32; Basis::stored_len(k)];
+    let (head, rows) = data.split_at_mut(super::ROWS);
+    let (ref_out, rest) = head.split_at_mut(PAIRS);
+    let (mean_out, rest) = rest.split_at_mut(PAIRS);
+    let (lower_out, rest) = rest.split_at_mut(PAIRS);
+    let (upper_out, residual_out) = rest.split_at_mut(PAIRS);
+    for pair in 0..PAIRS {
+        let log_reference = (reference[pair] + MAP_EPSILON).ln();
+        ref_out[pair] = reference[pair] as f32;
+        mean_out[pair] = (stats.mean[pair] - log_reference) as f32;
+        lower_out[pair] = (stats.lower[pair] as f64 - log_reference) as f32;
+        upper_out[pair] = (stats.upper[pair] as f64 - log_reference) as f32;
     }
-    head[2 * PAIRS..3 * PAIRS].copy_from_slice(&db.lower);
-    head[3 * PAIRS..].copy_from_slice(&db.upper);
-    rows.par_chunks_mut(kk * BLOCK_ROWS)
+    let mut residual = vec![0f64; PAIRS];
+    rows.par_chunks_mut(k * BLOCK_ROWS)
+        .zip(residual.par_chunks_mut(BLOCK_ROWS))
         .enumerate()
-        .for_each(|(b, chunk)| {
+        .for_each(|(b, (chunk, residual))| {
             let start = b * BLOCK_ROWS;
-            let count = chunk.len() / kk;
-            let mut u = Mat::<f64>::zeros(count, kk);
+            let count = chunk.len() / k;
+            let mut u = Mat::<f64>::zeros(count, k);
             matmul(
                 u.as_mut(),
                 Accum::Replace,
-                y.as_ref().subrows(start, count),
-                projector.as_ref(),
+                q.as_ref().subrows(start, count),
+                rotation.as_ref(),
                 1.0,
                 Par::Seq,
             );
             for r in 0..count {
-                let inv_w = 1.0 / weights[start + r];
-                for c in 0..kk {
-                    chunk[r * kk + c] = (u[(r, c)] * inv_w) as f32;
+                let pair = start + r;
+                let inv_w = 1.0 / weights[pair];
+                let mut explained = 0f64;
+                for c in 0..k {
+                    let row = u[(r, c)] * inv_w;
+                    chunk[r * k + c] = row as f32;
+                    explained += squared_singular[c] * row * row;
                 }
+                // What K components leave of this entry's spread over the database.
+                residual[r] = ((stats.m2[pair] - explained) / n as f64).max(0.0);
             }
         });
-    Basis::from_owned(kk, n, variances, residual_variance, data)
+    let weighted_residual: f64 = residual
+        .iter()
+        .enumerate()
+        .map(|(p, r)| crate::table::pair_multiplicity(p) * r)
+        .sum();
+    let residual_variance =
+        (weighted_residual / crate::table::ENTRIES as f64).max(MIN_RESIDUAL_VARIANCE);
+    for (out, r) in residual_out.iter_mut().zip(&residual) {
+        *out = r.max(MIN_RESIDUAL_VARIANCE) as f32;
+    }
+    progress(BuildProgress {
+        stage: "done",
+        done: size,
+        total: size,
+    });
+    Basis::from_owned(k, n, variances, residual_variance, data)
 }

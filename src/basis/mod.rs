@@ -1,9 +1,10 @@
 //! The PCA basis of the material database in the log-mapped domain of Nielsen et al. 2015.
 //!
-//! For every unordered direction pair p the basis holds the reference (per-entry median of ρ·c
-//! over the database), the mean of the mapped values, the range the database spans, and one row
-//! of K components. Component k is orthonormal over the *full* 1620² table, which counts an
-//! off-diagonal pair twice: Σ_p mult(p) u_p u_pᵀ = I.
+//! For every unordered direction pair p the basis holds the reference of the map (e^mean of
+//! ln(ρ·c + ε) over the database, less ε), the mean of the mapped values, the range the
+//! database spans, what the components leave unexplained there, and one row of K components.
+//! Component k is orthonormal over the *full* 1620² table, which counts an off-diagonal pair
+//! twice: Σ_p mult(p) u_p u_pᵀ = I.
 
 pub mod build;
 pub mod cache;
@@ -79,12 +80,14 @@ impl std::fmt::Debug for Basis {
     }
 }
 
-/// Offsets (in f32 elements) of the per-pair arrays inside the backing store.
+/// Offsets (in f32 elements) of the per-pair arrays inside the backing store (`ROWS` is
+/// shared with the builder, which fills them in this order).
 const REFERENCE: usize = 0;
 const MEAN: usize = PAIRS;
 const LOWER: usize = 2 * PAIRS;
 const UPPER: usize = 3 * PAIRS;
-const ROWS: usize = 4 * PAIRS;
+const RESIDUAL: usize = 4 * PAIRS;
+pub(crate) const ROWS: usize = 5 * PAIRS;
 
 impl Basis {
     /// Number of f32 values a basis of `components` components stores.
@@ -168,7 +171,7 @@ impl Basis {
         self.residual_variance
     }
 
-    /// Per-pair median of ρ·c over the database.
+    /// Per-pair reference of the map: e^mean of ln(ρ·c + ε) over the database, less ε.
     pub fn references(&self) -> &[f32] {
         &self.data()[REFERENCE..MEAN]
     }
@@ -185,7 +188,14 @@ impl Basis {
 
     /// Per-pair highest mapped value in the database.
     pub fn uppers(&self) -> &[f32] {
-        &self.data()[UPPER..ROWS]
+        &self.data()[UPPER..RESIDUAL]
+    }
+
+    /// Per-pair variance, over the database, of what the K components leave of its mapped
+    /// values (floored at [`MIN_RESIDUAL_VARIANCE`]): how far the basis can't follow a
+    /// material at that entry.
+    pub fn residuals(&self) -> &[f32] {
+        &self.data()[RESIDUAL..ROWS]
     }
 
     /// All component rows, pair-major: `rows()[p * K + k]`.

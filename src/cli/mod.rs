@@ -95,7 +95,7 @@ pub(crate) fn basis_progress_bar() -> impl Fn(BuildProgress) + Sync {
             bar.set_length(p.total as u64);
         }
         bar.set_position(p.done as u64);
-        if p.done == p.total && p.stage == "power iterations" {
+        if p.stage == "done" {
             bar.finish();
         }
     }

@@ -68,6 +68,7 @@ fn batch_solution(basis: Arc<burnish::basis::Basis>, views: &[PaintedView]) -> V
             pair,
             before: None,
             after: Some(v),
+            bounds: burnish::solver::EXACT,
         })
         .collect();
     solver.apply_all(&all);

@@ -35,6 +35,7 @@ pub use render::{
     BACKGROUND, GUIDE_ALBEDO, SHADOW, guide_image, guide_pixel, render_brdf, render_table,
 };
 pub use samples::{
-    MIN_COS, Sample, SampleCounts, SampleSet, SkipReason, sample_pixel, samples_from_file,
-    samples_from_image,
+    LDR_BLACK_BOUND, MIN_COS, PaintRange, Sample, SampleCounts, SampleSet, SkipReason,
+    paint_range_of, sample_pixel, sample_pixel_in, samples_from_file, samples_from_image,
+    samples_from_image_in,
 };

@@ -5,7 +5,7 @@ use super::gbuffer::GBuffer;
 use super::image_files::read_painting;
 use crate::error::Result;
 use crate::image_io::RgbImage;
-use crate::solver::{BinChange, SampleKey, SampleRejected, SparseTable};
+use crate::solver::{BinChange, Bound, Bounds, SampleKey, SampleRejected, SparseTable};
 use crate::table::DirIndex;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -25,6 +25,34 @@ pub struct Sample {
     pub view_bin: DirIndex,
     /// ρ in 1/sr, linear RGB, finite and ≥ 0.
     pub rho: [f64; 3],
+    /// What each channel of `rho` says: the value, or a bound where LDR paint was clipped.
+    pub bounds: Bounds,
+}
+
+/// What a painting's pixel values can express.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PaintRange {
+    /// Linear floats with no ceiling (EXR, the app's canvas): every value is exact.
+    #[default]
+    Hdr,
+    /// [0, 1] after sRGB decoding (PNG): a channel at 1 was clipped and says only "at least
+    /// this bright"; one at 0 says "darker than the first step of the 8-bit scale".
+    Ldr,
+}
+
+/// The linear value of half an 8-bit step above black: what a pixel stored as 0 may hide.
+pub const LDR_BLACK_BOUND: f32 = 0.5 / 255.0 / 12.92;
+
+impl PaintRange {
+    /// The value and meaning of one channel of a pixel painted in this range.
+    fn read(self, c: f32) -> (f32, Bound) {
+        match self {
+            PaintRange::Hdr => (c, Bound::Exact),
+            PaintRange::Ldr if c >= 1.0 => (c, Bound::AtLeast),
+            PaintRange::Ldr if c <= 0.0 => (LDR_BLACK_BOUND, Bound::AtMost),
+            PaintRange::Ldr => (c, Bound::Exact),
+        }
+    }
 }
 
 /// Why a pixel gives no sample.
@@ -100,7 +128,7 @@ impl SampleSet {
                 pixel: s.pixel,
             };
             table
-                .set_sample(key, s.light_bin, s.view_bin, s.rho, changes)
+                .set_bounded_sample(key, s.light_bin, s.view_bin, s.rho, s.bounds, changes)
                 .map_err(|e| (s.pixel, e))?;
         }
         Ok(())
@@ -115,6 +143,16 @@ pub fn sample_pixel(
     gbuffer: &GBuffer,
     pixel: usize,
     radiance: [f32; 3],
+) -> Result<Sample, SkipReason> {
+    sample_pixel_in(gbuffer, pixel, radiance, PaintRange::Hdr)
+}
+
+/// [`sample_pixel`] for paint of the given range.
+pub fn sample_pixel_in(
+    gbuffer: &GBuffer,
+    pixel: usize,
+    radiance: [f32; 3],
+    range: PaintRange,
 ) -> Result<Sample, SkipReason> {
     let point = gbuffer.at(pixel).ok_or(SkipReason::Background)?;
     if !point.is_lit() {
@@ -131,11 +169,13 @@ pub fn sample_pixel(
         return Err(SkipReason::Invalid);
     }
     let scale = 1.0 / (PI * cos_light);
+    let read = radiance.map(|c| range.read(c));
     Ok(Sample {
         pixel: pixel as u32,
         light_bin,
         view_bin,
-        rho: radiance.map(|c| c as f64 * scale),
+        rho: read.map(|(c, _)| c as f64 * scale),
+        bounds: read.map(|(_, b)| b),
     })
 }
 
@@ -145,6 +185,11 @@ pub fn sample_pixel(
 /// When the image is not the geometry buffer's size; [`samples_from_file`] checks that and
 /// says so instead.
 pub fn samples_from_image(gbuffer: &GBuffer, image: &RgbImage) -> SampleSet {
+    samples_from_image_in(gbuffer, image, PaintRange::Hdr)
+}
+
+/// [`samples_from_image`] for paint of the given range.
+pub fn samples_from_image_in(gbuffer: &GBuffer, image: &RgbImage, range: PaintRange) -> SampleSet {
     let n = gbuffer.resolution();
     assert!(
         image.width == n && image.height == n && image.pixels.len() == n * n,
@@ -163,7 +208,7 @@ pub fn samples_from_image(gbuffer: &GBuffer, image: &RgbImage) -> SampleSet {
             let mut samples = Vec::new();
             let mut counts = SampleCounts::default();
             for (x, &radiance) in row.iter().enumerate() {
-                let outcome = sample_pixel(gbuffer, y * n + x, radiance);
+                let outcome = sample_pixel_in(gbuffer, y * n + x, radiance, range);
                 counts.add(&outcome);
                 if let Ok(sample) = outcome {
                     samples.push(sample);
@@ -183,9 +228,23 @@ pub fn samples_from_image(gbuffer: &GBuffer, image: &RgbImage) -> SampleSet {
     set
 }
 
-/// Reads a painting (PNG: sRGB-decoded; EXR: linear) and turns it into samples; an image of
-/// the wrong size is an error naming the file and both sizes.
+/// Reads a painting (PNG: sRGB-decoded, LDR; EXR: linear, HDR) and turns it into samples; an
+/// image of the wrong size is an error naming the file and both sizes.
 pub fn samples_from_file(gbuffer: &GBuffer, path: impl AsRef<Path>) -> Result<SampleSet> {
+    let path = path.as_ref();
     let image = read_painting(path, gbuffer.resolution())?;
-    Ok(samples_from_image(gbuffer, &image))
+    Ok(samples_from_image_in(gbuffer, &image, paint_range_of(path)))
+}
+
+/// The range a painting file can hold, by its extension: PNG is LDR, anything else HDR.
+pub fn paint_range_of(path: &Path) -> PaintRange {
+    let png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if png {
+        PaintRange::Ldr
+    } else {
+        PaintRange::Hdr
+    }
 }

@@ -1,33 +1,47 @@
 //! The reconstructed BRDF: evaluated lazily, entry by entry, for what a view needs, or
 //! materialised in parallel as a full table for export.
 
+use super::bands::{BANDS, pair_bands};
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::table::{DIRECTIONS, DirIndex, PHI_BINS, Rgb, SymTable, pair_index};
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// A basis and one set of coefficients: ρ = unmap(mean + Σ_k u_k x_k), clamped to the range the
-/// database spans so that one stray sample can't blow a highlight up.
+/// A basis and its coefficients: ρ = unmap(mean + Σ_k u_k x_k(θ_d)), clamped to the range the
+/// database spans so that one stray sample can't blow a highlight up. x(θ_d) is one set of K
+/// coefficients (the global prior) or the blend of the two [`BANDS`] sets around the pair's θ_d
+/// (the localised prior, [`super::bands`]).
 #[derive(Clone, Debug)]
 pub struct Reconstruction {
     basis: Arc<Basis>,
-    /// Coefficients by channel, K each, in f32 for the evaluation loops.
+    /// Coefficient sets: 1 or [`BANDS`].
+    bands: usize,
+    /// Coefficients by channel, bands × K each (band-major), in f32 for the evaluation loops.
     coefficients: [Vec<f32>; 3],
 }
 
 impl Reconstruction {
-    /// The reconstruction for coefficients `x` (K rows of R, G, B).
+    /// The reconstruction for coefficients `x`: K rows of R, G, B (one set), or [`BANDS`] × K
+    /// (a solution of the localised prior, band-major).
     pub fn new(basis: Arc<Basis>, x: &[[f64; 3]]) -> Self {
-        assert_eq!(
-            x.len(),
-            basis.components(),
-            "one coefficient row per component"
+        let k = basis.components();
+        let bands = x.len() / k.max(1);
+        assert!(
+            bands * k == x.len() && (bands == 1 || bands == BANDS),
+            "K or {BANDS}·K coefficient rows, got {} for K = {k}",
+            x.len()
         );
         let coefficients = std::array::from_fn(|c| x.iter().map(|row| row[c] as f32).collect());
         Self {
             basis,
+            bands,
             coefficients,
         }
+    }
+
+    /// Coefficient sets: 1 (global) or [`BANDS`] (localised).
+    pub fn bands(&self) -> usize {
+        self.bands
     }
 
     /// The database's mean material (all coefficients zero): what an empty painting gives.
@@ -79,6 +93,7 @@ impl Reconstruction {
     fn evaluator(&self) -> Evaluator<'_> {
         Evaluator {
             k: self.basis.components(),
+            bands: (self.bands > 1).then(pair_bands),
             rows: self.basis.rows(),
             means: self.basis.means(),
             references: self.basis.references(),
@@ -114,6 +129,8 @@ impl Reconstruction {
 /// Borrowed basis arrays and coefficients for a run of evaluations.
 struct Evaluator<'a> {
     k: usize,
+    /// Per-pair band weights when there is more than one coefficient set.
+    bands: Option<&'a [super::bands::BandWeights]>,
     rows: &'a [f32],
     means: &'a [f32],
     references: &'a [f32],
@@ -126,14 +143,36 @@ impl Evaluator<'_> {
     /// ρ of pair `pair` whose directions lie in polar bins `t_l` and `t_v`.
     #[inline]
     fn eval(&self, pair: usize, t_l: usize, t_v: usize) -> Rgb {
-        let row = &self.rows[pair * self.k..(pair + 1) * self.k];
+        let k = self.k;
+        let row = &self.rows[pair * k..(pair + 1) * k];
         let [xr, xg, xb] = self.coefficients;
-        let (mut r, mut g, mut b) = (0f32, 0f32, 0f32);
-        for (i, &u) in row.iter().enumerate() {
-            r += u * xr[i];
-            g += u * xg[i];
-            b += u * xb[i];
-        }
+        let dot = |set: usize| {
+            let (xr, xg, xb) = (
+                &xr[set * k..(set + 1) * k],
+                &xg[set * k..(set + 1) * k],
+                &xb[set * k..(set + 1) * k],
+            );
+            let (mut r, mut g, mut b) = (0f32, 0f32, 0f32);
+            for (i, &u) in row.iter().enumerate() {
+                r += u * xr[i];
+                g += u * xg[i];
+                b += u * xb[i];
+            }
+            [r, g, b]
+        };
+        let [r, g, b] = match self.bands {
+            None => dot(0),
+            Some(bands) => {
+                let w = bands[pair];
+                let lower = dot(w.lower as usize);
+                if w.frac == 0.0 {
+                    lower
+                } else {
+                    let upper = dot(w.lower as usize + 1);
+                    std::array::from_fn(|c| lower[c] + w.frac * (upper[c] - lower[c]))
+                }
+            }
+        };
         let mean = self.means[pair];
         let reference = self.references[pair] + MAP_EPSILON as f32;
         let lo = self.lowers[pair] - RANGE_MARGIN;

@@ -1,36 +1,49 @@
-//! Ridge regression of the mapped sparse values onto the basis rows of the observed bins.
+//! The posterior of the coefficients given the painted bins: a Gaussian prior from the
+//! database, localised in θ_d, and a likelihood that weighs bins by what renders see.
 //!
-//! The normal equations N = Σ_b w_b u_b u_bᵀ and r_c = Σ_b w_b u_b y_bc are kept up to date
-//! one bin change at a time (O(K²) when a bin appears or empties, O(K) when its value changes),
-//! in f64, with an exact rebuild every [`Solver::REBUILD_INTERVAL`] changes so that long
-//! sessions cannot drift. w_b is the number of full-table entries the pair stands for.
+//! **Model.** In the mapped domain a bin p says y_p = ψ_pᵀX + e_p, where X stacks the
+//! [`BANDS`] coefficient sets X_j (K each) and ψ_p puts the basis row u_p on the two sets its
+//! θ_d blends ([`super::bands`]). Each X_j has the database's component variances σ_k², and
+//! X_i, X_j are correlated by ρ ([`PriorModel::band_correlation`]): a slice informs slices far
+//! away in θ_d less than the database's components alone would say. The noise e_p has variance
+//! α/(m_p·b_p): α in the mapped domain, m_p the pair's multiplicity (its entries in the full
+//! table) and b_p = ((L_p + κL̄)/((1 + κ)L̄))^β the bin's brightness weight, L_p its luminance
+//! times cos θ_l cos θ_v and L̄ their mean over the painted bins. The log-mapped fit treats a
+//! dark and a bright bin alike, but a render (and the relative error of the table) is made
+//! of the bright ones; b_p gives them their say, and κ keeps the dark ones in the fit.
 //!
-//! Regularisation is a Gaussian prior on the coefficients with the database's component
-//! variances σ_k²: (N + α Σ⁻¹) x = r. α is the observation noise variance in the mapped (log)
-//! domain, so it does not depend on the ρ scale. The default α = 3 was measured on held-out
-//! materials painted on one sphere view (default basis, K = 20): the error is flat for α in
-//! [1, 10] and grows fast below 0.3. It is far above the basis's own residual variance (≈ 0.01)
-//! because what a held-out material has outside the basis is the same smooth error in every
-//! bin of a slice, not independent noise. Generalised cross-validation sees only the painted
-//! slice, fits it almost exactly and extrapolates wildly off it (mean relative RMSE 13.7 against
-//! 0.39 for the default); a plain λI shrinks every component alike (2.5 at best).
+//! **Why, and how the constants were chosen.** With one set (the global prior of Nielsen et
+//! al.), a second and third painted view made a third of the held-out materials worse: their
+//! two slices set a trend the database continues into unobserved θ_d (measured in
+//! ../shared/findings and docs/BENCHMARKS.md). α, ρ, β and κ were chosen by leave-families-out
+//! cross-validation on the database itself (`burnish bench --calibrate`): bases built without
+//! a group of families, scored on materials of those families, one and three views.
+//!
+//! **Updates.** N = Σ_p w_p ψ_pψ_pᵀ and r_c = Σ_p w_p ψ_p y_pc are kept up to date one bin change
+//! at a time (O(K²) when a bin appears, empties or its weight changes, O(K) when only its value
+//! does), in f64, with an exact rebuild every [`Solver::REBUILD_INTERVAL`] changes and whenever
+//! L̄ drifts from the value the weights were computed with by more than a fifth.
+//!
+//! **Censored bins** (clipped LDR paint) are bounds, solved for by majorise–minimise.
 
-use super::sparse::BinChange;
+use super::bands::{BANDS, BandWeights, pair_bands};
+use super::sparse::{BinChange, Bound, Bounds, EXACT};
 use crate::basis::Basis;
-use faer::linalg::solvers::Solve;
+use crate::table::{cos_theta_centre, pair_directions};
+use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 /// How the solver regularises.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Regularization {
-    /// Variance-weighted prior with the measured default α ([`DEFAULT_ALPHA`]).
+    /// The prior with the calibrated α ([`DEFAULT_ALPHA`]).
     #[default]
     Auto,
-    /// Variance-weighted prior with α chosen by generalised cross-validation on the samples.
+    /// The prior with α chosen by generalised cross-validation on the samples.
     Gcv,
-    /// Variance-weighted prior with a fixed noise variance α (mapped domain).
+    /// The prior with a fixed noise variance α (mapped domain).
     Prior { alpha: f64 },
     /// Plain ridge λI on the coefficients (for comparison; not recommended).
     Ridge { lambda: f64 },
@@ -90,10 +103,91 @@ impl std::fmt::Display for Short {
     }
 }
 
+/// The shape of the prior and of the likelihood's weights, beyond α.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PriorModel {
+    /// Coefficient sets over θ_d: 1 is the global prior, [`BANDS`] the localised one.
+    pub bands: usize,
+    /// ρ: the prior correlation of two knots' coefficient sets (below 1 when `bands` > 1).
+    pub band_correlation: f64,
+    /// β: how much more a brighter bin counts (0: every bin alike).
+    pub brightness_exponent: f64,
+    /// κ: the brightness weight's floor, as a fraction of the mean brightness L̄.
+    pub brightness_floor: f64,
+}
+
+impl PriorModel {
+    /// The default: localised and brightness-weighted, with the cross-validated constants.
+    pub const CALIBRATED: Self = Self {
+        bands: BANDS,
+        band_correlation: CALIBRATED_BAND_CORRELATION,
+        brightness_exponent: CALIBRATED_BRIGHTNESS_EXPONENT,
+        brightness_floor: CALIBRATED_BRIGHTNESS_FLOOR,
+    };
+
+    /// Nielsen et al.'s prior: one coefficient set, every bin alike.
+    pub const GLOBAL: Self = Self {
+        bands: 1,
+        band_correlation: 1.0,
+        brightness_exponent: 0.0,
+        brightness_floor: 1.0,
+    };
+
+    /// Coefficient rows of a solution: `bands` × K.
+    pub fn rows(&self, components: usize) -> usize {
+        self.bands * components
+    }
+
+    fn band_weights(&self, pair: u32) -> BandWeights {
+        if self.bands == 1 {
+            BandWeights {
+                lower: 0,
+                frac: 0.0,
+            }
+        } else {
+            pair_bands()[pair as usize]
+        }
+    }
+
+    /// The prior precision across the sets of one component, for unit variance:
+    /// ((1 − ρ)I + ρ11ᵀ)⁻¹ = (I − ρ/(1 − ρ + Bρ)·11ᵀ)/(1 − ρ).
+    fn band_precision(&self, i: usize, j: usize) -> f64 {
+        if self.bands == 1 {
+            return 1.0;
+        }
+        let (rho, b) = (self.band_correlation, self.bands as f64);
+        let diagonal = if i == j { 1.0 } else { 0.0 };
+        (diagonal - rho / (1.0 - rho + b * rho)) / (1.0 - rho)
+    }
+}
+
+impl Default for PriorModel {
+    fn default() -> Self {
+        Self::CALIBRATED
+    }
+}
+
+/// Cross-validated constants of the default model (see the module documentation).
+pub const DEFAULT_ALPHA: f64 = CALIBRATED_ALPHA;
+const CALIBRATED_ALPHA: f64 = 10.0;
+const CALIBRATED_BAND_CORRELATION: f64 = 0.9;
+const CALIBRATED_BRIGHTNESS_EXPONENT: f64 = 1.0;
+const CALIBRATED_BRIGHTNESS_FLOOR: f64 = 0.3;
+
+/// Bounds of the α search (mapped-domain variance).
+const ALPHA_MIN: f64 = 1e-5;
+const ALPHA_MAX: f64 = 100.0;
+/// L̄ may drift this far (as a ratio) from the value the weights use before they are redone.
+const BRIGHTNESS_DRIFT: f64 = 1.2;
+/// Brightness weights are rounded to powers of this step, so that repainting a bin with a
+/// similar value changes only the right-hand side.
+const BRIGHTNESS_STEP_LOG2: f64 = 0.25;
+
 /// Coefficients and diagnostics of one solve.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Solution {
-    /// x_kc: K rows of (R, G, B) coefficients.
+    /// The coefficient sets, band-major: rows `j·K..(j+1)·K` are X_j, (R, G, B) each. One set
+    /// (K rows) for the global prior.
     pub coefficients: Vec<[f64; 3]>,
     /// The prior's α (or ridge λ) used.
     pub alpha: f64,
@@ -106,16 +200,15 @@ pub struct Solution {
 #[derive(Clone, Debug)]
 struct Observed {
     row: Box<[f64]>,
+    band: BandWeights,
     y: [f64; 3],
+    /// Luminance × cos θ_l cos θ_v of the bin's value: its brightness L_p.
+    brightness: f64,
+    /// Multiplicity × brightness weight.
     weight: f64,
+    /// Channels whose `y` is only a bound (clipped LDR paint).
+    bounds: Bounds,
 }
-
-/// Bounds of the α search (mapped-domain variance).
-const ALPHA_MIN: f64 = 1e-5;
-const ALPHA_MAX: f64 = 100.0;
-/// The prior's default α (mapped-domain variance), measured on held-out materials; also what
-/// cross-validation falls back to where it can't decide (fewer observations than components).
-pub const DEFAULT_ALPHA: f64 = 3.0;
 
 /// The incremental solver. Deterministic: its state depends on the set of observed bins
 /// and the order of changes only, never on hashing or threads.
@@ -123,34 +216,73 @@ pub const DEFAULT_ALPHA: f64 = 3.0;
 pub struct Solver {
     basis: Arc<Basis>,
     regularization: Regularization,
+    model: PriorModel,
+    /// The prior's mean coefficients (a starting material's projection, K rows), or zero.
+    prior_mean: Option<Vec<[f64; 3]>>,
     observed: BTreeMap<u32, Observed>,
+    /// Observed pairs with at least one bounded channel, solved for at [`Solver::solve`].
+    censored: BTreeSet<u32>,
+    /// N, D × D row-major with D = bands × K.
     normal: Vec<f64>,
     rhs: Vec<[f64; 3]>,
     yty: [f64; 3],
     weight_sum: f64,
+    /// Σ L_p over the observed bins, and the L̄ the weights were computed with.
+    brightness_sum: f64,
+    brightness_reference: f64,
     changes_since_rebuild: usize,
+}
+
+/// Rec. 709 luminance × cos θ_l cos θ_v of a bin value: what it adds to a render.
+fn bin_brightness(pair: u32, rho: [f64; 3]) -> f64 {
+    let (lo, hi) = pair_directions(pair as usize);
+    let luminance = 0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2];
+    (luminance * cos_theta_centre(lo) * cos_theta_centre(hi)).max(0.0)
 }
 
 impl Solver {
     /// Changes applied between exact rebuilds of the normal equations.
     pub const REBUILD_INTERVAL: usize = 1 << 16;
 
+    /// A solver with the calibrated prior ([`PriorModel::CALIBRATED`]).
     pub fn new(basis: Arc<Basis>, regularization: Regularization) -> Self {
-        let k = basis.components();
+        Self::with_model(basis, regularization, PriorModel::CALIBRATED)
+    }
+
+    pub fn with_model(
+        basis: Arc<Basis>,
+        regularization: Regularization,
+        model: PriorModel,
+    ) -> Self {
+        assert!(
+            model.bands == 1 || model.bands == BANDS,
+            "1 or {BANDS} coefficient sets"
+        );
+        assert!(model.bands == 1 || (0.0..1.0).contains(&model.band_correlation));
+        let d = model.rows(basis.components());
         Self {
             basis,
             regularization,
+            model,
+            prior_mean: None,
             observed: BTreeMap::new(),
-            normal: vec![0.0; k * k],
-            rhs: vec![[0.0; 3]; k],
+            censored: BTreeSet::new(),
+            normal: vec![0.0; d * d],
+            rhs: vec![[0.0; 3]; d],
             yty: [0.0; 3],
             weight_sum: 0.0,
+            brightness_sum: 0.0,
+            brightness_reference: 0.0,
             changes_since_rebuild: 0,
         }
     }
 
     pub fn basis(&self) -> &Arc<Basis> {
         &self.basis
+    }
+
+    pub fn model(&self) -> PriorModel {
+        self.model
     }
 
     pub fn regularization(&self) -> Regularization {
@@ -161,35 +293,98 @@ impl Solver {
         self.regularization = regularization;
     }
 
+    /// Centres the prior on `mean` (K rows of R, G, B: a starting material's projection onto
+    /// the basis), so that unpainted parts of the table keep that material; `None` centres it
+    /// on the database's mean material. Rows past K are ignored, missing ones are zero.
+    pub fn set_prior_mean(&mut self, mean: Option<Vec<[f64; 3]>>) {
+        let k = self.basis.components();
+        self.prior_mean = mean.map(|m| {
+            (0..k)
+                .map(|i| {
+                    m.get(i)
+                        .copied()
+                        .unwrap_or([0.0; 3])
+                        .map(|v| if v.is_finite() { v } else { 0.0 })
+                })
+                .collect()
+        });
+    }
+
+    /// The prior's mean coefficients, if set.
+    pub fn prior_mean(&self) -> Option<&[[f64; 3]]> {
+        self.prior_mean.as_deref()
+    }
+
     pub fn observed_bins(&self) -> usize {
         self.observed.len()
     }
 
-    /// N (K × K, row-major) and r (K rows of R, G, B), for inspection and tests.
+    /// N (D × D, row-major, D = bands × K) and r (D rows of R, G, B), for inspection and tests.
     pub fn normal_equations(&self) -> (&[f64], &[[f64; 3]]) {
         (&self.normal, &self.rhs)
+    }
+
+    fn dimension(&self) -> usize {
+        self.model.rows(self.basis.components())
     }
 
     fn centred(&self, pair: u32, rho: [f64; 3]) -> [f64; 3] {
         rho.map(|v| self.basis.centred_observation(pair as usize, v))
     }
 
+    /// Multiplicity × the rounded brightness weight of a bin of brightness `brightness`.
+    fn weight_of(&self, pair: u32, brightness: f64) -> f64 {
+        let m = crate::table::pair_multiplicity(pair as usize);
+        let (beta, kappa, mean) = (
+            self.model.brightness_exponent,
+            self.model.brightness_floor,
+            self.brightness_reference,
+        );
+        if beta == 0.0 || !(mean > 0.0) {
+            return m;
+        }
+        let b = ((brightness + kappa * mean) / ((1.0 + kappa) * mean)).powf(beta);
+        let step = BRIGHTNESS_STEP_LOG2;
+        m * ((b.log2() / step).round() * step).exp2()
+    }
+
     /// Applies one bin change to the normal equations.
     pub fn apply(&mut self, change: &BinChange) {
-        let k = self.basis.components();
         let pair = change.pair;
-        match (change.before.is_some(), change.after) {
-            (_, Some(rho)) => {
+        let d = self.dimension();
+        match change.after {
+            Some(rho) => {
                 let y = self.centred(pair, rho);
-                if let Some(obs) = self.observed.get_mut(&pair) {
-                    for c in 0..3 {
-                        let dy = y[c] - obs.y[c];
-                        for (i, u) in obs.row.iter().enumerate() {
-                            self.rhs[i][c] += obs.weight * u * dy;
+                let brightness = bin_brightness(pair, rho);
+                let weight = self.weight_of(pair, brightness);
+                if let Some(mut obs) = self.observed.remove(&pair) {
+                    self.brightness_sum += brightness - obs.brightness;
+                    if weight == obs.weight {
+                        // Same weight: only the right-hand side moves, O(K).
+                        for (j, phi) in obs.band.pairs() {
+                            if phi == 0.0 {
+                                continue;
+                            }
+                            for c in 0..3 {
+                                let dy = obs.weight * phi * (y[c] - obs.y[c]);
+                                for (i, u) in obs.row.iter().enumerate() {
+                                    self.rhs[j * obs.row.len() + i][c] += u * dy;
+                                }
+                            }
                         }
-                        self.yty[c] += obs.weight * (y[c] * y[c] - obs.y[c] * obs.y[c]);
+                        for c in 0..3 {
+                            self.yty[c] += obs.weight * (y[c] * y[c] - obs.y[c] * obs.y[c]);
+                        }
+                    } else {
+                        self.accumulate(&obs, -1.0, d);
+                        obs.weight = weight;
+                        obs.y = y;
+                        self.accumulate(&obs, 1.0, d);
                     }
                     obs.y = y;
+                    obs.brightness = brightness;
+                    obs.bounds = change.bounds;
+                    self.observed.insert(pair, obs);
                 } else {
                     let row: Box<[f64]> = self
                         .basis
@@ -197,31 +392,38 @@ impl Solver {
                         .iter()
                         .map(|&u| u as f64)
                         .collect();
-                    let weight = crate::table::pair_multiplicity(pair as usize);
-                    let obs = Observed { row, y, weight };
-                    accumulate(&mut self.normal, &mut self.rhs, &mut self.yty, &obs, 1.0, k);
-                    self.weight_sum += weight;
+                    let obs = Observed {
+                        row,
+                        band: self.model.band_weights(pair),
+                        y,
+                        brightness,
+                        weight,
+                        bounds: change.bounds,
+                    };
+                    self.accumulate(&obs, 1.0, d);
+                    self.brightness_sum += brightness;
                     self.observed.insert(pair, obs);
                 }
             }
-            (_, None) => {
+            None => {
                 if let Some(obs) = self.observed.remove(&pair) {
-                    accumulate(
-                        &mut self.normal,
-                        &mut self.rhs,
-                        &mut self.yty,
-                        &obs,
-                        -1.0,
-                        k,
-                    );
-                    self.weight_sum -= obs.weight;
+                    self.accumulate(&obs, -1.0, d);
+                    self.brightness_sum -= obs.brightness;
                 }
             }
+        }
+        if change.after.is_some() && change.bounds != EXACT {
+            self.censored.insert(pair);
+        } else {
+            self.censored.remove(&pair);
         }
         self.changes_since_rebuild += 1;
         // With no bin left, exact zeros cost nothing and keep rounding residue from giving
         // an empty painting anything but the mean material.
-        if self.changes_since_rebuild >= Self::REBUILD_INTERVAL || self.observed.is_empty() {
+        if self.changes_since_rebuild >= Self::REBUILD_INTERVAL
+            || self.observed.is_empty()
+            || self.brightness_drifted()
+        {
             self.rebuild();
         }
     }
@@ -233,60 +435,132 @@ impl Solver {
         }
     }
 
-    /// Recomputes the normal equations exactly from the observed bins.
+    /// True when L̄ left the band around the value the weights were computed with.
+    fn brightness_drifted(&self) -> bool {
+        if self.model.brightness_exponent == 0.0 || self.observed.is_empty() {
+            return false;
+        }
+        let mean = self.brightness_sum.max(0.0) / self.observed.len() as f64;
+        let reference = self.brightness_reference;
+        if !(reference > 0.0) {
+            return mean > 0.0;
+        }
+        mean > reference * BRIGHTNESS_DRIFT || mean * BRIGHTNESS_DRIFT < reference
+    }
+
+    /// Recomputes L̄, every weight and the normal equations exactly from the observed bins.
     pub fn rebuild(&mut self) {
-        let k = self.basis.components();
+        let d = self.dimension();
         self.normal.iter_mut().for_each(|v| *v = 0.0);
         self.rhs.iter_mut().for_each(|v| *v = [0.0; 3]);
         self.yty = [0.0; 3];
         self.weight_sum = 0.0;
-        for obs in self.observed.values() {
-            accumulate(&mut self.normal, &mut self.rhs, &mut self.yty, obs, 1.0, k);
-            self.weight_sum += obs.weight;
+        self.brightness_sum = self.observed.values().map(|o| o.brightness).sum();
+        self.brightness_reference = if self.observed.is_empty() {
+            0.0
+        } else {
+            self.brightness_sum / self.observed.len() as f64
+        };
+        let mut observed = std::mem::take(&mut self.observed);
+        for (&pair, obs) in observed.iter_mut() {
+            obs.weight = self.weight_of(pair, obs.brightness);
+            accumulate(
+                &mut self.normal,
+                &mut self.rhs,
+                &mut self.yty,
+                &mut self.weight_sum,
+                obs,
+                1.0,
+                d,
+            );
         }
+        self.observed = observed;
         self.changes_since_rebuild = 0;
     }
 
-    /// Solves for the coefficients. Always finite: with no observation it returns the mean
-    /// material (all coefficients 0).
-    pub fn solve(&self) -> Solution {
+    /// Adds (`sign` = 1) or removes (−1) one observation's terms.
+    fn accumulate(&mut self, obs: &Observed, sign: f64, d: usize) {
+        accumulate(
+            &mut self.normal,
+            &mut self.rhs,
+            &mut self.yty,
+            &mut self.weight_sum,
+            obs,
+            sign,
+            d,
+        );
+    }
+
+    /// P₀: the prior precision for unit α, D × D: 1/σ_k² times the band precision, between
+    /// the same component of any two sets.
+    fn prior_precision(&self) -> Mat<f64> {
         let k = self.basis.components();
-        let sigma: Vec<f64> = prior_scales(self.basis.variances());
-        let (alpha, penalty): (f64, Vec<f64>) = match self.regularization {
-            Regularization::Ridge { lambda } => (lambda, vec![lambda; k]),
-            Regularization::Prior { alpha } => {
-                (alpha, sigma.iter().map(|s| alpha / (s * s)).collect())
+        let d = self.dimension();
+        let sigma = prior_scales(self.basis.variances());
+        let mut p = Mat::<f64>::zeros(d, d);
+        for a in 0..self.model.bands {
+            for b in 0..self.model.bands {
+                let t = self.model.band_precision(a, b);
+                for i in 0..k {
+                    p[(a * k + i, b * k + i)] = t / (sigma[i] * sigma[i]);
+                }
             }
-            Regularization::Auto => (
-                DEFAULT_ALPHA,
-                sigma.iter().map(|s| DEFAULT_ALPHA / (s * s)).collect(),
-            ),
+        }
+        p
+    }
+
+    /// The regularised normal matrix N + αP₀ (or N + λI), its right-hand side with the prior
+    /// mean's pull, and the α used.
+    fn system(&self) -> (Mat<f64>, Mat<f64>, f64) {
+        let d = self.dimension();
+        let k = self.basis.components();
+        let p0 = self.prior_precision();
+        let (alpha, prior): (f64, Mat<f64>) = match self.regularization {
+            Regularization::Ridge { lambda } => (lambda, Mat::<f64>::identity(d, d) * lambda),
+            Regularization::Prior { alpha } => (alpha, &p0 * alpha),
+            Regularization::Auto => (DEFAULT_ALPHA, &p0 * DEFAULT_ALPHA),
             Regularization::Gcv => {
-                let alpha = self.gcv_alpha(&sigma).unwrap_or(DEFAULT_ALPHA);
-                (alpha, sigma.iter().map(|s| alpha / (s * s)).collect())
+                let alpha = self.gcv_alpha(&p0).unwrap_or(DEFAULT_ALPHA);
+                (alpha, &p0 * alpha)
             }
         };
-        let mut m = Mat::<f64>::from_fn(k, k, |i, j| self.normal[i * k + j]);
-        for i in 0..k {
-            m[(i, i)] += penalty[i];
+        let mut m = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
+        m += &prior;
+        let mut rhs = Mat::<f64>::from_fn(d, 3, |i, c| self.rhs[i][c]);
+        if let Some(mean) = &self.prior_mean {
+            // A prior N(x₀, ·) on every set adds (αP₀)(1 ⊗ x₀) to the right-hand side.
+            let x0 = Mat::<f64>::from_fn(d, 3, |i, c| mean[i % k][c]);
+            rhs += &prior * &x0;
         }
+        (m, rhs, alpha)
+    }
+
+    /// Solves for the coefficients. Always finite: with no observation it returns the prior's
+    /// mean (the database's mean material, all coefficients 0, unless a start was set).
+    pub fn solve(&self) -> Solution {
+        let d = self.dimension();
+        let (mut m, rhs, alpha) = self.system();
         let condition_number = condition_number(&m);
-        let mut x = Mat::<f64>::from_fn(k, 3, |i, c| self.rhs[i][c]);
-        match m.llt(Side::Lower) {
-            Ok(llt) => llt.solve_in_place(x.as_mut()),
-            // N + Λ is positive definite for any positive penalty; this guards rounding.
+        let llt = match m.llt(Side::Lower) {
+            Ok(llt) => Some(llt),
+            // N + αP₀ is positive definite for any positive α; this guards rounding.
             Err(_) => {
                 let jitter = m.norm_max() * 1e-12 + 1e-300;
-                for i in 0..k {
+                for i in 0..d {
                     m[(i, i)] += jitter;
                 }
-                match m.llt(Side::Lower) {
-                    Ok(llt) => llt.solve_in_place(x.as_mut()),
-                    Err(_) => x.fill(0.0),
-                }
+                m.llt(Side::Lower).ok()
             }
-        }
-        let coefficients = (0..k)
+        };
+        let x = match llt {
+            Some(llt) => {
+                let mut x = llt.solve(&rhs);
+                self.enforce_bounds(&mut x, &rhs, |b| llt.solve(b));
+                x
+            }
+            None => Mat::zeros(d, 3),
+        };
+        let coefficients = (0..d)
             .map(|i| {
                 std::array::from_fn(|c| {
                     if x[(i, c)].is_finite() {
@@ -305,39 +579,122 @@ impl Solver {
         }
     }
 
+    /// The posterior of the coefficients: covariance α(N + αP₀)⁻¹ (the likelihood's precision
+    /// is N/α, the prior's P₀). For the uncertainty of the table and the choice of a next view.
+    pub fn posterior(&self) -> Posterior {
+        let d = self.dimension();
+        let (m, _, alpha) = self.system();
+        let covariance = match m.llt(Side::Lower) {
+            Ok(llt) => llt.inverse() * alpha,
+            Err(_) => Mat::<f64>::zeros(d, d),
+        };
+        Posterior {
+            model: self.model,
+            components: self.basis.components(),
+            alpha,
+            precision: m * (1.0 / alpha),
+            covariance,
+        }
+    }
+
+    /// Observations a new view would add, as the solver would weigh them: (pair, weight)
+    /// with `predicted` values (the current reconstruction's) standing in for the paint.
+    pub fn prospective_weight(&self, pair: u32, predicted: [f64; 3]) -> f64 {
+        self.weight_of(pair, bin_brightness(pair, predicted))
+    }
+
+    /// Bounded channels (clipped paint) by majorise–minimise: each bounded observation is
+    /// refitted to the bound or to the current prediction, whichever the bound allows
+    /// (max for "at least", min for "at most"), and the system solved again. The normal
+    /// matrix already holds every observed row, so only the right-hand side changes, and each
+    /// step lowers the one-sided squared loss; it stops when the coefficients settle.
+    fn enforce_bounds(
+        &self,
+        x: &mut Mat<f64>,
+        rhs: &Mat<f64>,
+        solve: impl Fn(&Mat<f64>) -> Mat<f64>,
+    ) {
+        const MAX_STEPS: usize = 200;
+        const TOLERANCE: f64 = 1e-10;
+        if self.censored.is_empty() {
+            return;
+        }
+        let k = self.basis.components();
+        for _ in 0..MAX_STEPS {
+            let mut shifted = rhs.clone();
+            for pair in &self.censored {
+                let obs = &self.observed[pair];
+                let blocks = obs.band.pairs();
+                for c in 0..3 {
+                    let bound = obs.bounds[c];
+                    if bound == Bound::Exact {
+                        continue;
+                    }
+                    let mut predicted = 0.0;
+                    for &(j, phi) in &blocks {
+                        if phi != 0.0 {
+                            predicted +=
+                                phi * (0..k).map(|i| obs.row[i] * x[(j * k + i, c)]).sum::<f64>();
+                        }
+                    }
+                    let target = match bound {
+                        Bound::AtLeast => predicted.max(obs.y[c]),
+                        Bound::AtMost => predicted.min(obs.y[c]),
+                        Bound::Exact => obs.y[c],
+                    };
+                    let shift = obs.weight * (target - obs.y[c]);
+                    for &(j, phi) in &blocks {
+                        if phi != 0.0 {
+                            for i in 0..k {
+                                shifted[(j * k + i, c)] += shift * phi * obs.row[i];
+                            }
+                        }
+                    }
+                }
+            }
+            let next = solve(&shifted);
+            let change = (&next - &*x).norm_max();
+            let scale = next.norm_max().max(1.0);
+            *x = next;
+            if !(change > TOLERANCE * scale) {
+                break;
+            }
+        }
+    }
+
     /// α minimising the generalised cross-validation score, shared by R, G and B.
     /// `None` when there are too few observations for cross-validation to mean anything.
-    fn gcv_alpha(&self, sigma: &[f64]) -> Option<f64> {
-        let k = sigma.len();
-        if self.weight_sum < (k + 2) as f64 {
+    fn gcv_alpha(&self, p0: &Mat<f64>) -> Option<f64> {
+        let d = self.dimension();
+        if self.weight_sum < (d + 2) as f64 {
             return None;
         }
-        // Whitened normal matrix A = S N S = Q E Qᵀ, and g_c = Qᵀ S r_c.
-        let a = Mat::<f64>::from_fn(k, k, |i, j| sigma[i] * self.normal[i * k + j] * sigma[j]);
+        // Whitened by the prior: P₀ = LLᵀ, A = L⁻¹NL⁻ᵀ = QEQᵀ, g_c = QᵀL⁻¹r_c.
+        let l = p0.llt(Side::Lower).ok()?;
+        let l_inv = l.L().to_owned().partial_piv_lu().inverse();
+        let n = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
+        let a = &l_inv * &n * l_inv.transpose();
         let eigen = a.self_adjoint_eigen(Side::Lower).ok()?;
         let (q, e) = (eigen.U(), eigen.S().column_vector());
-        let e: Vec<f64> = (0..k).map(|i| e[i].max(0.0)).collect();
-        let g: Vec<[f64; 3]> = (0..k)
-            .map(|i| {
-                std::array::from_fn(|c| (0..k).map(|j| q[(j, i)] * sigma[j] * self.rhs[j][c]).sum())
-            })
-            .collect();
-        let n = 3.0 * self.weight_sum;
+        let e: Vec<f64> = (0..d).map(|i| e[i].max(0.0)).collect();
+        let r = Mat::<f64>::from_fn(d, 3, |i, c| self.rhs[i][c]);
+        let g = q.transpose() * (&l_inv * &r);
+        let count = 3.0 * self.weight_sum;
         let yty: f64 = self.yty.iter().sum();
         let score = |log_alpha: f64| -> f64 {
             let alpha = log_alpha.exp();
             let (mut rss, mut df) = (yty, 0.0);
-            for i in 0..k {
-                let d = e[i] + alpha;
-                let g2: f64 = g[i].iter().map(|v| v * v).sum();
-                rss -= g2 * (e[i] + 2.0 * alpha) / (d * d);
-                df += 3.0 * e[i] / d;
+            for i in 0..d {
+                let den = e[i] + alpha;
+                let g2: f64 = (0..3).map(|c| g[(i, c)] * g[(i, c)]).sum();
+                rss -= g2 * (e[i] + 2.0 * alpha) / (den * den);
+                df += 3.0 * e[i] / den;
             }
-            let dof = n - df;
-            if dof <= 1e-9 * n {
+            let dof = count - df;
+            if dof <= 1e-9 * count {
                 f64::INFINITY
             } else {
-                n * rss.max(0.0) / (dof * dof)
+                count * rss.max(0.0) / (dof * dof)
             }
         };
         let (lo, hi) = (ALPHA_MIN.ln(), ALPHA_MAX.ln());
@@ -367,6 +724,118 @@ impl Solver {
     }
 }
 
+/// The posterior of the coefficients after a solve.
+#[derive(Clone, Debug)]
+pub struct Posterior {
+    model: PriorModel,
+    components: usize,
+    alpha: f64,
+    /// (N + αP₀)/α: the posterior precision.
+    precision: Mat<f64>,
+    covariance: Mat<f64>,
+}
+
+impl Posterior {
+    /// The α the posterior was computed with.
+    pub fn alpha(&self) -> f64 {
+        self.alpha
+    }
+
+    /// The posterior precision of the coefficients (D × D).
+    pub fn precision(&self) -> &Mat<f64> {
+        &self.precision
+    }
+
+    /// The posterior covariance of the coefficients (D × D).
+    pub fn covariance(&self) -> &Mat<f64> {
+        &self.covariance
+    }
+
+    /// ψ_p: where pair `pair`'s basis row `row` enters the coefficients (D entries).
+    pub fn design_row(&self, pair: u32, row: &[f32]) -> Vec<f64> {
+        let k = self.components;
+        let mut psi = vec![0.0; self.model.rows(k)];
+        for (j, phi) in self.model.band_weights(pair).pairs() {
+            if phi != 0.0 {
+                for i in 0..k {
+                    psi[j * k + i] = phi * row[i] as f64;
+                }
+            }
+        }
+        psi
+    }
+
+    /// Variance of the mapped value of pair `pair` given the painted bins (the coefficients'
+    /// share; the basis's residual there adds to it).
+    pub fn mapped_variance(&self, pair: u32, row: &[f32]) -> f64 {
+        let k = self.components;
+        let blocks = self.model.band_weights(pair).pairs();
+        let mut sum = 0.0;
+        for &(ja, pa) in &blocks {
+            if pa == 0.0 {
+                continue;
+            }
+            for &(jb, pb) in &blocks {
+                if pb == 0.0 {
+                    continue;
+                }
+                for i in 0..k {
+                    let ui = pa * row[i] as f64;
+                    let mut s = 0.0;
+                    for l in 0..k {
+                        s += self.covariance[(ja * k + i, jb * k + l)] * row[l] as f64;
+                    }
+                    sum += ui * pb * s;
+                }
+            }
+        }
+        sum.max(0.0)
+    }
+}
+
+/// Adds (`sign` = 1) or removes (−1) one observation's terms w·ψψᵀ, w·ψy and w·y².
+fn accumulate(
+    normal: &mut [f64],
+    rhs: &mut [[f64; 3]],
+    yty: &mut [f64; 3],
+    weight_sum: &mut f64,
+    obs: &Observed,
+    sign: f64,
+    d: usize,
+) {
+    let k = obs.row.len();
+    let w = sign * obs.weight;
+    let blocks = obs.band.pairs();
+    for &(ja, pa) in &blocks {
+        if pa == 0.0 {
+            continue;
+        }
+        for &(jb, pb) in &blocks {
+            if pb == 0.0 {
+                continue;
+            }
+            let s = w * pa * pb;
+            for i in 0..k {
+                let su = s * obs.row[i];
+                let base = (ja * k + i) * d + jb * k;
+                for (n, u) in normal[base..base + k].iter_mut().zip(obs.row.iter()) {
+                    *n += su * u;
+                }
+            }
+        }
+        for i in 0..k {
+            let wu = w * pa * obs.row[i];
+            for c in 0..3 {
+                rhs[ja * k + i][c] += wu * obs.y[c];
+            }
+        }
+    }
+    for c in 0..3 {
+        yty[c] += w * obs.y[c] * obs.y[c];
+    }
+    *weight_sum += w;
+}
+
 /// Prior standard deviation per component, floored so that a degenerate component
 /// gets a huge but finite penalty.
 fn prior_scales(variances: &[f64]) -> Vec<f64> {
@@ -379,30 +848,6 @@ fn prior_scales(variances: &[f64]) -> Vec<f64> {
         .iter()
         .map(|v| v.max(top * 1e-12).sqrt())
         .collect()
-}
-
-fn accumulate(
-    normal: &mut [f64],
-    rhs: &mut [[f64; 3]],
-    yty: &mut [f64; 3],
-    obs: &Observed,
-    sign: f64,
-    k: usize,
-) {
-    let w = sign * obs.weight;
-    for i in 0..k {
-        let wu = w * obs.row[i];
-        let row = &mut normal[i * k..(i + 1) * k];
-        for (n, u) in row.iter_mut().zip(obs.row.iter()) {
-            *n += wu * u;
-        }
-        for c in 0..3 {
-            rhs[i][c] += wu * obs.y[c];
-        }
-    }
-    for c in 0..3 {
-        yty[c] += w * obs.y[c] * obs.y[c];
-    }
 }
 
 /// max/min eigenvalue of a symmetric positive semi-definite matrix. A singular matrix reports

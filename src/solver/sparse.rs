@@ -51,12 +51,31 @@ impl std::fmt::Display for Policy {
     }
 }
 
-/// A bin whose value changed: `before`/`after` are `None` when the bin was/is empty.
+/// What a sample's channel says about the BRDF: its value, or only a bound. Paint clipped at
+/// the top of an 8-bit range says "at least this bright", paint at its bottom "at most this
+/// dark" (LDR paint is censored data).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Bound {
+    #[default]
+    Exact,
+    AtLeast,
+    AtMost,
+}
+
+/// A bound per channel (R, G, B).
+pub type Bounds = [Bound; 3];
+
+/// Every channel exact: what HDR paint and the app's canvas give.
+pub const EXACT: Bounds = [Bound::Exact; 3];
+
+/// A bin whose value changed: `before`/`after` are `None` when the bin was/is empty;
+/// `bounds` says what `after` means per channel ([`EXACT`] when it is `None`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BinChange {
     pub pair: u32,
     pub before: Option<[f64; 3]>,
     pub after: Option<[f64; 3]>,
+    pub bounds: Bounds,
 }
 
 /// Why a sample was not taken.
@@ -68,11 +87,20 @@ pub enum SampleRejected {
     Negative,
 }
 
+/// One sample in a bin.
+#[derive(Clone, Copy, Debug)]
+struct Held {
+    key: SampleKey,
+    rho: [f64; 3],
+    bounds: Bounds,
+}
+
 #[derive(Clone, Debug, Default)]
 struct Bin {
     /// Sorted by key.
-    samples: Vec<(SampleKey, [f64; 3])>,
+    samples: Vec<Held>,
     value: [f64; 3],
+    bounds: Bounds,
 }
 
 fn luminance(rgb: &[f64; 3]) -> f64 {
@@ -80,6 +108,20 @@ fn luminance(rgb: &[f64; 3]) -> f64 {
 }
 
 impl Bin {
+    /// Per channel: a bound as soon as one sample is clipped at the top (the bin's value can
+    /// then only be too low), an upper bound when every sample is clipped at the bottom.
+    fn aggregate_bounds(&self) -> Bounds {
+        std::array::from_fn(|c| {
+            if self.samples.iter().any(|s| s.bounds[c] == Bound::AtLeast) {
+                Bound::AtLeast
+            } else if self.samples.iter().all(|s| s.bounds[c] == Bound::AtMost) {
+                Bound::AtMost
+            } else {
+                Bound::Exact
+            }
+        })
+    }
+
     fn aggregate(&self, policy: Policy) -> [f64; 3] {
         match policy {
             Policy::Mean => {
@@ -88,7 +130,7 @@ impl Bin {
                 let n = self.samples.len() as f64;
                 let mut sum = [0.0f64; 3];
                 let mut largest = [0.0f64; 3];
-                for (_, v) in &self.samples {
+                for Held { rho: v, .. } in &self.samples {
                     for c in 0..3 {
                         sum[c] += v[c] / n;
                         largest[c] = largest[c].max(v[c]);
@@ -103,8 +145,8 @@ impl Bin {
 
     /// The sample whose luminance `better` prefers; ties go to the smallest key.
     fn pick(&self, better: impl Fn(f64, f64) -> bool) -> [f64; 3] {
-        let mut best = self.samples[0].1;
-        for (_, v) in &self.samples[1..] {
+        let mut best = self.samples[0].rho;
+        for Held { rho: v, .. } in &self.samples[1..] {
             if better(luminance(v), luminance(&best)) {
                 best = *v;
             }
@@ -116,7 +158,7 @@ impl Bin {
     fn spread(&self) -> f64 {
         const FLOOR: f64 = 1e-3;
         let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-        for (_, v) in &self.samples {
+        for Held { rho: v, .. } in &self.samples {
             let y = luminance(v);
             lo = lo.min(y);
             hi = hi.max(y);
@@ -183,6 +225,11 @@ impl SparseTable {
         self.bins.iter().map(|(&p, b)| (p, b.value))
     }
 
+    /// Observed bins with their values and what each channel's value means, in pair order.
+    pub fn observed_bounded(&self) -> impl Iterator<Item = (u32, [f64; 3], Bounds)> + '_ {
+        self.bins.iter().map(|(&p, b)| (p, b.value, b.bounds))
+    }
+
     /// Number of samples in the bin of `pair`.
     pub fn samples_in(&self, pair: u32) -> usize {
         self.bins.get(&pair).map_or(0, |b| b.samples.len())
@@ -218,6 +265,19 @@ impl SparseTable {
         rho: [f64; 3],
         changes: &mut Vec<BinChange>,
     ) -> Result<(), SampleRejected> {
+        self.set_bounded_sample(key, d_l, d_v, rho, EXACT, changes)
+    }
+
+    /// [`Self::set_sample`] for a sample whose channels may be bounds rather than values.
+    pub fn set_bounded_sample(
+        &mut self,
+        key: SampleKey,
+        d_l: DirIndex,
+        d_v: DirIndex,
+        rho: [f64; 3],
+        bounds: Bounds,
+        changes: &mut Vec<BinChange>,
+    ) -> Result<(), SampleRejected> {
         if rho.iter().any(|c| !c.is_finite()) {
             return Err(SampleRejected::NotFinite);
         }
@@ -229,14 +289,15 @@ impl SparseTable {
         let pair = pair_index(d_l, d_v) as u32;
         match self.sample_bins.insert(key, pair) {
             Some(old_pair) if old_pair != pair => {
-                self.edit_bin(old_pair, changes, |s| s.retain(|(k, _)| *k != key));
+                self.edit_bin(old_pair, changes, |s| s.retain(|h| h.key != key));
             }
             _ => {}
         }
+        let held = Held { key, rho, bounds };
         self.edit_bin(pair, changes, |samples| {
-            match samples.binary_search_by_key(&key, |(k, _)| *k) {
-                Ok(i) => samples[i].1 = rho,
-                Err(i) => samples.insert(i, (key, rho)),
+            match samples.binary_search_by_key(&key, |h| h.key) {
+                Ok(i) => samples[i] = held,
+                Err(i) => samples.insert(i, held),
             }
         });
         Ok(())
@@ -245,7 +306,7 @@ impl SparseTable {
     /// Removes the sample `key`, if present.
     pub fn remove_sample(&mut self, key: SampleKey, changes: &mut Vec<BinChange>) {
         if let Some(pair) = self.sample_bins.remove(&key) {
-            self.edit_bin(pair, changes, |s| s.retain(|(k, _)| *k != key));
+            self.edit_bin(pair, changes, |s| s.retain(|h| h.key != key));
         }
     }
 
@@ -276,6 +337,7 @@ impl SparseTable {
                     pair,
                     before: Some(bin.value),
                     after: Some(value),
+                    bounds: bin.bounds,
                 });
                 bin.value = value;
             }
@@ -286,23 +348,25 @@ impl SparseTable {
         &mut self,
         pair: u32,
         changes: &mut Vec<BinChange>,
-        edit: impl FnOnce(&mut Vec<(SampleKey, [f64; 3])>),
+        edit: impl FnOnce(&mut Vec<Held>),
     ) {
         let bin = self.bins.entry(pair).or_default();
-        let before = (!bin.samples.is_empty()).then_some(bin.value);
+        let before = (!bin.samples.is_empty()).then_some((bin.value, bin.bounds));
         edit(&mut bin.samples);
         let after = if bin.samples.is_empty() {
             self.bins.remove(&pair);
             None
         } else {
             bin.value = bin.aggregate(self.policy);
-            Some(bin.value)
+            bin.bounds = bin.aggregate_bounds();
+            Some((bin.value, bin.bounds))
         };
         if before != after {
             changes.push(BinChange {
                 pair,
-                before,
-                after,
+                before: before.map(|(v, _)| v),
+                after: after.map(|(v, _)| v),
+                bounds: after.map_or(EXACT, |(_, b)| b),
             });
         }
     }

@@ -385,11 +385,12 @@ impl WorkerState {
         let mut solver = Solver::new(basis, self.regularization);
         let existing: Vec<BinChange> = self
             .sparse
-            .observed()
-            .map(|(pair, value)| BinChange {
+            .observed_bounded()
+            .map(|(pair, value, bounds)| BinChange {
                 pair,
                 before: None,
                 after: Some(value),
+                bounds,
             })
             .collect();
         solver.apply_all(&existing);

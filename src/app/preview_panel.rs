@@ -1002,7 +1002,7 @@ fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             .include_y(0.0)
             .include_y(-n)
             .y_axis_formatter(|mark, _| format!("{:.0}", -mark.value))
-            .label_formatter(|_, _| String::new())
+            .label_formatter(|_| None)
             .show(ui, |plot| {
                 plot.image(egui_plot::PlotImage::new(
                     "table",

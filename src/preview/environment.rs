@@ -345,20 +345,28 @@ mod tests {
     fn samples_follow_the_light() {
         let studio = Environment::studio();
         let samples = studio.samples(256);
-        let total: f64 = samples.iter().map(|s| s.weight[1]).sum();
-        // Σ weight estimates ∫ L dω; compare with the image's own sum over solid angle.
+        // Σ weight estimates ∫ L dω: exactly for the luminance the samples are drawn by
+        // (each carries the same share of it), closely for each channel.
+        let weight_luminance = |w: [f64; 3]| 0.2126 * w[0] + 0.7152 * w[1] + 0.0722 * w[2];
+        let total: f64 = samples.iter().map(|s| weight_luminance(s.weight)).sum();
+        let green: f64 = samples.iter().map(|s| s.weight[1]).sum();
         let (w, h) = (studio.image.width, studio.image.height);
-        let mut integral = 0.0;
+        let (mut integral, mut green_integral) = (0.0, 0.0);
         for y in 0..h {
             let sin = ((y as f64 + 0.5) / h as f64 * PI).sin();
             for x in 0..w {
-                integral +=
-                    studio.image.get(x, y)[1] as f64 * sin * (PI / h as f64) * (TAU / w as f64);
+                let area = sin * (PI / h as f64) * (TAU / w as f64);
+                integral += luminance(studio.image.get(x, y)) * area;
+                green_integral += studio.image.get(x, y)[1] as f64 * area;
             }
         }
         assert!(
-            (total - integral).abs() < 1e-6 * integral,
+            (total - integral).abs() < 1e-9 * integral,
             "{total} vs {integral}"
+        );
+        assert!(
+            (green - green_integral).abs() < 0.01 * green_integral,
+            "{green} vs {green_integral}"
         );
         // The key softbox (about 4% of the sphere) holds most of the light, so most samples.
         let key = light_direction(35.0, 45.0);

@@ -489,7 +489,7 @@ mod tests {
 
     #[test]
     fn uniform_layout_is_what_the_shader_expects() {
-        // 2 mat4 + 15 vec4 (shaders/frame.wgsl).
-        assert_eq!(std::mem::size_of::<FrameUniforms>(), 2 * 64 + 15 * 16);
+        // 2 mat4 + 14 vec4 (shaders/frame.wgsl).
+        assert_eq!(std::mem::size_of::<FrameUniforms>(), 2 * 64 + 14 * 16);
     }
 }

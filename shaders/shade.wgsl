@@ -323,17 +323,13 @@ fn unobserved(pixel: vec2<f32>) -> vec3<f32> {
     return frame.unobserved_b.rgb;
 }
 
-@compute @workgroup_size(8, 8)
-fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
-    if !in_viewport(id) {
-        return;
-    }
-    let r = record_of(id);
+// The radiance of pixel `xy` (alpha 1 on the object, 0 off it).
+fn shade_at(xy: vec2<u32>) -> vec4<f32> {
+    let r = RECORD * (xy.y * u32(frame.viewport.x) + xy.x);
     let flags = records[r];
     if (flags & COVERED) == 0u {
         // Alpha 0 marks the background (the object has 1), for `pick`.
-        textureStore(radiance, id.xy, vec4<f32>(frame.background.rgb, 0.0));
-        return;
+        return vec4<f32>(frame.background.rgb, 0.0);
     }
     let mode = frame.flags.x;
     var colour = frame.shadow_colour.rgb * bitcast<f32>(records[r + 1u]);
@@ -344,8 +340,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         if mode == MODE_SPARSE {
             let s = sparse_value(light.bins.x, view.bins.x);
             if s.w < 0.5 {
-                textureStore(radiance, id.xy, vec4<f32>(unobserved(vec2<f32>(id.xy) + 0.5), 1.0));
-                return;
+                return vec4<f32>(unobserved(vec2<f32>(xy) + 0.5), 1.0);
             }
             colour += s.rgb * factor;
         } else {
@@ -379,5 +374,46 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         colour += sum;
     }
-    textureStore(radiance, id.xy, vec4<f32>(max(colour, vec3<f32>(0.0)) * frame.scalars.x, 1.0));
+    return vec4<f32>(max(colour, vec3<f32>(0.0)) * frame.scalars.x, 1.0);
+}
+
+@compute @workgroup_size(8, 8)
+fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    if in_viewport(id) {
+        textureStore(radiance, id.xy, shade_at(id.xy));
+    }
+}
+
+fn covered(xy: vec2<u32>) -> bool {
+    return (records[RECORD * (xy.y * u32(frame.viewport.x) + xy.x)] & COVERED) != 0u;
+}
+
+// The draft gather, while a stroke is being painted: one pixel of each 2 × 2 block is shaded
+// and stands for the block's other pixels on the object (a quarter of the work); the
+// silhouette stays exact. The full gather refines it when the stroke ends.
+@compute @workgroup_size(8, 8)
+fn gather_draft(@builtin(global_invocation_id) id: vec3<u32>) {
+    let base = id.xy * 2u;
+    let size = vec2<u32>(frame.viewport.xy);
+    if base.x >= size.x || base.y >= size.y {
+        return;
+    }
+    var colour = vec4<f32>(frame.background.rgb, 0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let p = base + vec2<u32>(k & 1u, k >> 1u);
+        if p.x < size.x && p.y < size.y && covered(p) {
+            colour = shade_at(p);
+            break;
+        }
+    }
+    for (var k = 0u; k < 4u; k++) {
+        let p = base + vec2<u32>(k & 1u, k >> 1u);
+        if p.x < size.x && p.y < size.y {
+            if covered(p) {
+                textureStore(radiance, p, colour);
+            } else {
+                textureStore(radiance, p, vec4<f32>(frame.background.rgb, 0.0));
+            }
+        }
+    }
 }

@@ -749,6 +749,34 @@ fn painting_reruns_only_the_gather() {
         }
     }
 
+    // A draft (while a stroke is painted) shades one pixel per 2 × 2 block for the block;
+    // the full frame after it is the full frame again, without new geometry.
+    frame.exposure_stops = 0.0;
+    let full = render(&gpu, &mut r, &frame, 128);
+    frame.draft = true;
+    let draft = render(&gpu, &mut r, &frame, 128);
+    for by in (0..128).step_by(2) {
+        for bx in (0..128).step_by(2) {
+            let block = [(bx, by), (bx + 1, by), (bx, by + 1), (bx + 1, by + 1)];
+            let first = block
+                .iter()
+                .find(|&&(x, y)| full.get(x, y) != frame.background);
+            for &(x, y) in &block {
+                let expected = if full.get(x, y) == frame.background {
+                    frame.background
+                } else {
+                    let (fx, fy) = *first.expect("a covered pixel");
+                    full.get(fx, fy)
+                };
+                assert_eq!(draft.get(x, y), expected, "({x}, {y})");
+            }
+        }
+    }
+    assert_ne!(draft.pixels, full.pixels);
+    frame.draft = false;
+    assert_eq!(render(&gpu, &mut r, &frame, 128).pixels, full.pixels);
+    assert_eq!(r.pass_counts().geometry, counts.geometry);
+
     // Camera, light, size and object each set the geometry up again.
     let mut geometry = counts.geometry;
     frame.camera.yaw_deg += 10.0;

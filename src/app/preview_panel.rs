@@ -619,6 +619,16 @@ fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     if let Some(error) = error {
         app.notify_error(format!("preview: {error}"));
     }
+    // While a stroke is painted on the canvas, a draft (a quarter of the gather); the stroke's
+    // end refines it.
+    let canvas = app.canvas_layout().map(|(rect, _)| rect);
+    app.preview.draft = ui.input(|i| {
+        i.pointer.primary_down()
+            && i.pointer
+                .press_origin()
+                .zip(canvas)
+                .is_some_and(|(origin, canvas)| canvas.contains(origin))
+    });
     let ppp = ui.ctx().pixels_per_point();
     ui.painter().add(crate::preview::paint_callback(
         rect,

@@ -138,6 +138,9 @@ pub struct PreviewFrame {
     pub tangent_reference: [f64; 3],
     /// Linear colour off the object.
     pub background: [f32; 3],
+    /// Shade one pixel of each 2 × 2 block for the others (a quarter of the gather), as
+    /// while a stroke is being painted; the full frame refines it.
+    pub draft: bool,
 }
 
 impl Default for PreviewFrame {
@@ -161,6 +164,7 @@ impl PreviewFrame {
             exposure_stops: 0.0,
             tangent_reference: scene.tangent_reference,
             background: BACKGROUND,
+            draft: false,
         }
     }
 

@@ -97,6 +97,7 @@ impl GeometryKey {
         let mut frame = frame.clone();
         frame.exposure_stops = 0.0;
         frame.background = [0.0; 3];
+        frame.draft = false;
         Self {
             frame,
             size,
@@ -171,6 +172,7 @@ pub struct PreviewRenderer {
     shadow_pipeline: wgpu::RenderPipeline,
     setup_pipeline: wgpu::ComputePipeline,
     gather_pipeline: wgpu::ComputePipeline,
+    draft_pipeline: wgpu::ComputePipeline,
     compute_pipeline: wgpu::ComputePipeline,
     listed_pipeline: wgpu::ComputePipeline,
     pairs_layout: wgpu::BindGroupLayout,
@@ -556,6 +558,12 @@ impl PreviewRenderer {
             &shade_module,
             "gather",
         );
+        let draft_pipeline = compute_pipeline(
+            "preview draft gather",
+            &shade_pipeline_layout,
+            &shade_module,
+            "gather_draft",
+        );
         let compute_pipeline = compute_pipeline(
             "preview reconstruction",
             &compute_pipeline_layout,
@@ -698,6 +706,7 @@ impl PreviewRenderer {
             shadow_pipeline,
             setup_pipeline,
             gather_pipeline,
+            draft_pipeline,
             compute_pipeline,
             listed_pipeline,
             pairs_layout,
@@ -1307,8 +1316,18 @@ impl PreviewRenderer {
                 timestamp_writes: None,
             });
             pass.set_bind_group(0, &shade_bind_group, &[]);
-            pass.set_pipeline(&self.gather_pipeline);
-            pass.dispatch_workgroups(tiles.0, tiles.1, 1);
+            if frame.draft {
+                pass.set_pipeline(&self.draft_pipeline);
+                let blocks = (width.div_ceil(2), height.div_ceil(2));
+                pass.dispatch_workgroups(
+                    blocks.0.div_ceil(PIXEL_TILE),
+                    blocks.1.div_ceil(PIXEL_TILE),
+                    1,
+                );
+            } else {
+                pass.set_pipeline(&self.gather_pipeline);
+                pass.dispatch_workgroups(tiles.0, tiles.1, 1);
+            }
         }
         queue.submit([encoder.finish()]);
         self.shaded = Some(shade_key);

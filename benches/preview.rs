@@ -118,16 +118,19 @@ fn previews(c: &mut Criterion) {
                 })
             });
         }
-        for (name, object, environment) in [
-            ("sphere", &sphere, false),
-            ("torus mesh", &torus, false),
-            ("sphere with the environment", &sphere, true),
+        for (name, object, environment, draft) in [
+            ("sphere", &sphere, false, false),
+            ("sphere, draft", &sphere, false, true),
+            ("torus mesh", &torus, false, false),
+            ("sphere with the environment", &sphere, true, false),
+            ("sphere with the environment, draft", &sphere, true, true),
         ] {
             renderer.set_object(object).unwrap();
             let frame = PreviewFrame {
                 mode: PreviewMode::Reconstruction,
                 interpolate: true,
                 environment: environment.then(EnvironmentLight::default),
+                draft,
                 ..PreviewFrame::default()
             };
             let mut which = 0;

@@ -37,7 +37,9 @@ struct Frame {
     background: vec4<f32>,
     // mode, interpolate, shadows, environment directions in use.
     flags: vec4<u32>,
-    // exposure scale, shadow normal offset, shadow depth bias, unused.
+    // exposure scale, shadow normal offset, shadow depth bias, and how many environment
+    // directions one stands for in the gather (1, or 4 in a draft, which reads the first
+    // quarter of them).
     scalars: vec4<f32>,
 }
 

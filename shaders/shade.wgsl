@@ -361,7 +361,9 @@ fn shade_at(xy: vec2<u32>) -> vec4<f32> {
         let view_bin = records[r + 19u];
         let guide = mode == MODE_GUIDE;
         var sum = vec3<f32>(0.0);
-        for (var i = 0u; i < frame.flags.w; i++) {
+        let share = frame.scalars.w;
+        let used = u32(f32(frame.flags.w) / share);
+        for (var i = 0u; i < used; i++) {
             let d = environment[2u * i].xyz;
             let l = vec3<f32>(dot(d, x), dot(d, y), dot(d, n));
             if l.z > 0.0 {
@@ -372,7 +374,7 @@ fn shade_at(xy: vec2<u32>) -> vec4<f32> {
                 sum += rho * environment[2u * i + 1u].rgb * l.z;
             }
         }
-        colour += sum;
+        colour += sum * share;
     }
     return vec4<f32>(max(colour, vec3<f32>(0.0)) * frame.scalars.x, 1.0);
 }

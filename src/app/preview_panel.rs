@@ -835,7 +835,8 @@ fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             if rescale {
                 plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(min, max));
             }
-            // Decade rings of the log scale, labelled by the value they stand for.
+            // Decade rings of the log scale, labelled by the value they stand for (unnamed, so
+            // that the legend lists only the lobes).
             for ring in 1..=log_rings {
                 let r = f64::from(ring);
                 let circle: Vec<[f64; 2]> = (0..=90)
@@ -845,9 +846,18 @@ fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
                     })
                     .collect();
                 plot.line(
-                    egui_plot::Line::new(format!("1e{}", floor as i32 + ring as i32), circle)
+                    egui_plot::Line::new("", circle)
                         .color(Color32::from_gray(90))
                         .style(egui_plot::LineStyle::dotted_dense()),
+                );
+                plot.text(
+                    egui_plot::Text::new(
+                        "",
+                        egui_plot::PlotPoint::new(0.0, r),
+                        format!("1e{}", floor as i32 + ring as i32),
+                    )
+                    .color(Color32::from_gray(150))
+                    .anchor(egui::Align2::LEFT_BOTTOM),
                 );
             }
             for (name, points, colour, dashed) in curves {
@@ -864,12 +874,10 @@ fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 } else {
                     lobe_colour(i, angles_drawn.len())
                 };
+                // The light's direction, unnamed: the lobe of the same colour names it.
                 plot.line(
-                    egui_plot::Line::new(
-                        format!("light {theta:.0}°"),
-                        vec![[0.0, 0.0], [-t.sin() * reach, t.cos() * reach]],
-                    )
-                    .color(colour.gamma_multiply(0.6)),
+                    egui_plot::Line::new("", vec![[0.0, 0.0], [-t.sin() * reach, t.cos() * reach]])
+                        .color(colour.gamma_multiply(0.6)),
                 );
             }
         });
@@ -1098,8 +1106,31 @@ fn table_overlay(
             *p = Color32::from_rgba_unmultiplied(230, 60, 230, (a * 200.0) as u8);
         }
     }
+    // Zoomed out, a pixel holds several bins: a mark then covers its neighbours too, so that
+    // a single bin stays visible.
+    let spread = usize::from((window.x[1] - window.x[0]) > pixels as f64);
+    let dilate = |marks: Vec<bool>| {
+        let mut out = marks.clone();
+        for y in 0..pixels {
+            for x in 0..pixels {
+                if marks[y * pixels + x] {
+                    for yy in y.saturating_sub(spread)..=(y + spread).min(pixels - 1) {
+                        for xx in x.saturating_sub(spread)..=(x + spread).min(pixels - 1) {
+                            out[yy * pixels + xx] = true;
+                        }
+                    }
+                }
+            }
+        }
+        out
+    };
     if o.observed {
-        let marks = pair_marks(app.observed.keys().copied(), window, pixels, pixels);
+        let marks = dilate(pair_marks(
+            app.observed.keys().copied(),
+            window,
+            pixels,
+            pixels,
+        ));
         for (p, m) in image.iter_mut().zip(marks) {
             if m {
                 *p = Color32::from_rgb(60, 220, 90);
@@ -1107,7 +1138,12 @@ fn table_overlay(
         }
     }
     if o.inconsistent {
-        let marks = pair_marks(app.inconsistent.iter().copied(), window, pixels, pixels);
+        let marks = dilate(pair_marks(
+            app.inconsistent.iter().copied(),
+            window,
+            pixels,
+            pixels,
+        ));
         for (p, m) in image.iter_mut().zip(marks) {
             if m {
                 *p = Color32::from_rgb(255, 40, 40);

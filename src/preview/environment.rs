@@ -172,9 +172,10 @@ impl Environment {
     }
 
     /// `count` directions importance-sampled by luminance × solid angle, through the inverse
-    /// CDFs of the rows and, within a row, of its pixels, at the points of a Hammersley set
-    /// (deterministic and evenly spread). Each sample's weight is `L / (count · pdf)`, so
-    /// `Σ weight · f(direction)` estimates `∫ L f dω`.
+    /// CDFs of the rows and, within a row, of its pixels, at the points of the Halton sequence
+    /// in bases 2 and 3 (deterministic, and every prefix is evenly spread: the first quarter is
+    /// a good set of its own, which the preview's draft uses). Each sample's weight is
+    /// `L / (count · pdf)`, so `Σ weight · f(direction)` estimates `∫ L f dω`.
     pub fn samples(&self, count: usize) -> Vec<EnvironmentSample> {
         let (w, h) = (self.image.width, self.image.height);
         if count == 0 {
@@ -197,8 +198,8 @@ impl Environment {
         let cell = (PI / h as f64) * (TAU / w as f64);
         (0..count)
             .map(|i| {
-                let u = (i as f64 + 0.5) / count as f64;
-                let v = radical_inverse(i as u32);
+                let u = radical_inverse(i as u32 + 1, 2);
+                let v = radical_inverse(i as u32 + 1, 3);
                 let (row, row_offset) = invert(&row_cdf, u);
                 let pixels = &mass[row * w..(row + 1) * w];
                 let (column, column_offset) = invert(&cumulative(pixels), v);
@@ -250,10 +251,16 @@ fn invert(cdf: &[f64], u: f64) -> (usize, f64) {
     (i, offset)
 }
 
-/// Van der Corput's base-2 radical inverse, in (0, 1): bits of `i` mirrored about the point,
-/// offset by half the finest step so that no point lands on 0.
-fn radical_inverse(i: u32) -> f64 {
-    (i.reverse_bits() as f64 + 0.5) / 4_294_967_296.0
+/// The radical inverse of `i` ≥ 1 in `base`: its digits mirrored about the point, in (0, 1).
+fn radical_inverse(mut i: u32, base: u32) -> f64 {
+    let mut value = 0.0;
+    let mut scale = 1.0 / base as f64;
+    while i > 0 {
+        value += (i % base) as f64 * scale;
+        i /= base;
+        scale /= base as f64;
+    }
+    value
 }
 
 /// Elevation and azimuth (degrees) of the centre of pixel (x, y) of a `width × height` map.

@@ -247,6 +247,10 @@ const SHADOW_NORMAL_OFFSET: f64 = 1.5 * 2.0 / SHADOW_MAP_SIZE as f64;
 /// In normalised depth (the map's depth range is 3 units): half a texel's width.
 const SHADOW_DEPTH_BIAS: f64 = 0.5 * (2.0 / SHADOW_MAP_SIZE as f64) / 3.0;
 
+/// A draft frame reads one environment direction in this many (the sequence's prefix, each
+/// weighted this many times).
+const DRAFT_ENVIRONMENT_STRIDE: f32 = 4.0;
+
 /// The neutral checker that marks unobserved bins in sparse mode (linear).
 pub const UNOBSERVED: [[f32; 3]; 2] = [[0.10, 0.10, 0.10], [0.16, 0.16, 0.16]];
 
@@ -433,7 +437,12 @@ impl FrameUniforms {
                 frame.exposure_stops.exp2() as f32,
                 SHADOW_NORMAL_OFFSET as f32,
                 SHADOW_DEPTH_BIAS as f32,
-                0.0,
+                // A draft reads the first quarter of the environment's directions.
+                if frame.draft {
+                    DRAFT_ENVIRONMENT_STRIDE
+                } else {
+                    1.0
+                },
             ],
         }
     }

@@ -19,9 +19,10 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 const RECORD_WORDS: u64 = 20;
 /// Side of the set-up and gather passes' workgroups (shaders/shade.wgsl).
 const PIXEL_TILE: u32 = 8;
-/// Directions the environment light is sampled at: enough that a studio's softboxes read as
-/// areas on a glossy material, few enough that a new snapshot re-shades at a usable rate.
-pub const ENVIRONMENT_DIRECTIONS: usize = 256;
+/// Directions the environment light is sampled at. Each costs every pixel a table read per
+/// gather, so this is what a new snapshot can afford on a software rasteriser (a draft uses
+/// the first quarter); a glossy material shows the softboxes as clusters of glints.
+pub const ENVIRONMENT_DIRECTIONS: usize = 64;
 /// Invocations per workgroup of the reconstruction pass (shaders/reconstruct.wgsl).
 const WORKGROUP_SIZE: u32 = 256;
 /// Pairs packed and uploaded at a time when a basis is set, to bound the staging memory.

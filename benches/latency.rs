@@ -111,6 +111,15 @@ fn main() {
     harness.step();
     harness.state().worker.sync(Duration::from_secs(30));
     harness.run_steps(3);
+    // The same pointer motion without the button: no new snapshot, so the preview draws
+    // nothing new; what is left is the UI and the window's render.
+    let mut idle_ms = Vec::with_capacity(frames / 4);
+    for i in 0..frames / 4 {
+        let frame_start = Instant::now();
+        harness.event(Event::PointerMoved(at(i as f32 / frames as f32)));
+        harness.step();
+        idle_ms.push(frame_start.elapsed().as_secs_f64() * 1e3);
+    }
 
     let app = harness.state();
     let percentile = |v: &[f64], q: f64| {
@@ -131,6 +140,11 @@ fn main() {
         "frame time (UI + render): p50 {:.1} ms, p95 {:.1} ms; most commands queued: {max_queue}",
         percentile(&frame_ms, 0.5),
         percentile(&frame_ms, 0.95)
+    );
+    println!(
+        "frame time without painting (UI + render, preview unchanged): p50 {:.1} ms, p95 {:.1} ms",
+        percentile(&idle_ms, 0.5),
+        percentile(&idle_ms, 0.95)
     );
     println!(
         "samples {}, observed bins {}, last worker batch {:.2} ms",

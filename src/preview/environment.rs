@@ -190,7 +190,8 @@ impl Environment {
             .collect();
         let row_mass: Vec<f64> = mass.chunks_exact(w).map(|r| r.iter().sum()).collect();
         let total: f64 = row_mass.iter().sum();
-        if !(total > 0.0) {
+        // A black image (from_image refuses one) or a NaN sum: nothing to sample.
+        if total.is_nan() || total <= 0.0 {
             return Vec::new();
         }
         let row_cdf = cumulative(&row_mass);

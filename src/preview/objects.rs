@@ -259,7 +259,7 @@ mod tests {
 
     #[test]
     fn labels_and_loading() {
-        assert_eq!(PreviewObject::PaintedView.load().unwrap().is_none(), true);
+        assert!(PreviewObject::PaintedView.load().unwrap().is_none());
         assert!(PreviewObject::MaterialTest.load().unwrap().is_some());
         let bowl = PreviewObject::Obj(
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/meshes/bowl.obj"),

@@ -1,10 +1,14 @@
 //! Stroke-to-preview latency of the real app: pointer event → the first frame whose preview
 //! draws coefficients that include it, with the wgpu renderer drawing every frame (lavapipe
-//! here, or whatever adapter wgpu picks). A 1024² canvas, the default basis (K = 20, from the
-//! cache), continuous painting at a steady frame rate.
+//! here, or whatever adapter wgpu picks). The app's default window (1500 × 900), a 512²
+//! canvas, the default basis (K = 20, from the cache), continuous painting at a steady frame
+//! rate.
 //!
 //! `cargo bench --bench latency` prints p50, p95 and max latency, frame times and the most
-//! commands ever waiting for the worker (the worker keeps up when that stays small).
+//! commands ever waiting for the worker (the worker keeps up when that stays small), with the
+//! load average before and after (other work on the machine shows in the figures).
+//! `LATENCY_FRAMES` (240), `LATENCY_RESOLUTION` (512) and `LATENCY_WINDOW` (`1500x900`)
+//! change the run.
 
 use burnish::app::{AppConfig, BurnishApp};
 use burnish::basis::BasisCache;
@@ -15,10 +19,25 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 fn main() {
-    let frames: usize = std::env::var("LATENCY_FRAMES")
-        .ok()
+    let setting = |name: &str| std::env::var(name).ok();
+    let frames: usize = setting("LATENCY_FRAMES")
         .and_then(|v| v.parse().ok())
         .unwrap_or(240);
+    let resolution: u32 = setting("LATENCY_RESOLUTION")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(512);
+    let window = setting("LATENCY_WINDOW")
+        .and_then(|v| {
+            let (w, h) = v.split_once('x')?;
+            Some(Vec2::new(w.parse().ok()?, h.parse().ok()?))
+        })
+        .unwrap_or(Vec2::new(1500.0, 900.0));
+    let load = || {
+        std::fs::read_to_string("/proc/loadavg")
+            .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+            .unwrap_or_else(|_| "unknown".into())
+    };
+    let load_before = load();
     let settings = burnish::session::BasisSettings::default();
     let spec = burnish::app::basis_spec(&settings);
     let cache = BasisCache::default_location().expect("a cache folder");
@@ -37,13 +56,13 @@ fn main() {
         brushes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("brushes"),
         autosave: false,
         scene: Scene {
-            resolution: 1024,
+            resolution,
             ..Scene::default()
         },
         ..AppConfig::default()
     };
     let mut harness = Harness::builder()
-        .with_size(Vec2::new(1600.0, 900.0))
+        .with_size(window)
         .wgpu()
         .with_render_every_step(true)
         .build_eframe(move |cc| BurnishApp::new(cc, config));
@@ -51,7 +70,12 @@ fn main() {
     harness.state_mut().brush.size = 60.0;
     harness.state_mut().brush.colour = [0.8, 0.5, 0.3];
     let (rect, resolution) = harness.state().canvas_layout().expect("canvas laid out");
-    eprintln!("canvas {resolution}², drawn at {:.0} points", rect.width());
+    eprintln!(
+        "window {}x{}, canvas {resolution}², drawn at {:.0} points",
+        window.x,
+        window.y,
+        rect.width()
+    );
 
     // A slow spiral over the sphere, one pointer event per frame.
     let at = |t: f32| {
@@ -87,6 +111,15 @@ fn main() {
     harness.step();
     harness.state().worker.sync(Duration::from_secs(30));
     harness.run_steps(3);
+    // The same pointer motion without the button: no new snapshot, so the preview draws
+    // nothing new; what is left is the UI and the window's render.
+    let mut idle_ms = Vec::with_capacity(frames / 4);
+    for i in 0..frames / 4 {
+        let frame_start = Instant::now();
+        harness.event(Event::PointerMoved(at(i as f32 / frames as f32)));
+        harness.step();
+        idle_ms.push(frame_start.elapsed().as_secs_f64() * 1e3);
+    }
 
     let app = harness.state();
     let percentile = |v: &[f64], q: f64| {
@@ -109,7 +142,13 @@ fn main() {
         percentile(&frame_ms, 0.95)
     );
     println!(
+        "frame time without painting (UI + render, preview unchanged): p50 {:.1} ms, p95 {:.1} ms",
+        percentile(&idle_ms, 0.5),
+        percentile(&idle_ms, 0.95)
+    );
+    println!(
         "samples {}, observed bins {}, last worker batch {:.2} ms",
         app.snapshot.stats.samples, app.snapshot.stats.observed_bins, app.snapshot.stats.update_ms
     );
+    println!("load average before {load_before}, after {}", load());
 }

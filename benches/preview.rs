@@ -1,12 +1,17 @@
 //! Preview frame times on the headless adapter (Mesa lavapipe where there is no GPU): one frame
 //! is `prepare` (uniforms, passes, submit) and waiting for the GPU to finish, without readback.
-//! Also what painting costs per snapshot: new coefficients (K = 20) re-evaluated for all
-//! 1,313,010 pairs, and sparse-bin updates.
+//! "geometry" cases turn the camera every frame, so that the geometry raster and per-pixel
+//! set-up run each time; "snapshot" cases set new coefficients (K = 20) every frame, which is
+//! what painting costs: the evaluation of the pairs the view reads and one gather pass. Also
+//! the evaluation of all 1,313,010 pairs, and sparse-bin updates.
 
 use burnish::basis::{BasisSpec, build_basis};
 use burnish::materials::models::{Distribution, Fresnel, Microfacet};
 use burnish::materials::tabulate;
-use burnish::preview::{PreviewFrame, PreviewMode, PreviewRenderer, Sky, headless_gpu};
+use burnish::preview::{
+    EnvironmentLight, PreviewFrame, PreviewMode, PreviewRenderer, headless_gpu,
+    material_test_object,
+};
 use burnish::scene::{BuiltinShape, Object};
 use burnish::table::PAIRS;
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -48,6 +53,8 @@ fn previews(c: &mut Criterion) {
     .unwrap();
     let torus = Object::builtin(BuiltinShape::Torus);
 
+    let material_test = material_test_object();
+
     let wait = |device: &wgpu::Device| {
         device
             .poll(wgpu::PollType::wait_indefinitely())
@@ -70,14 +77,14 @@ fn previews(c: &mut Criterion) {
                 azimuth_deg: -60.0,
                 intensity: 0.5,
             }),
-            sky: Some(Sky { radiance: 0.3 }),
+            environment: Some(EnvironmentLight::default()),
             ..table(true)
         };
-        let cases: [(&str, &Object, PreviewFrame); 5] = [
+        let cases: [(&str, &Object, PreviewFrame); 6] = [
             ("sphere table nearest", &sphere, table(false)),
             ("sphere table interpolated", &sphere, table(true)),
             (
-                "sphere interpolated, fill light and 12-direction sky",
+                "sphere interpolated, fill light and 256-direction environment",
                 &sphere,
                 lights,
             ),
@@ -87,11 +94,23 @@ fn previews(c: &mut Criterion) {
                 &torus,
                 table(true),
             ),
+            (
+                "material-test mesh interpolated, shadows",
+                &material_test,
+                table(true),
+            ),
         ];
         for (name, object, frame) in cases {
             renderer.set_object(object).unwrap();
-            group.bench_function(format!("{name} {size}²"), |b| {
+            let mut frame = frame;
+            group.bench_function(format!("geometry: {name} {size}²"), |b| {
                 b.iter(|| {
+                    // A new camera every frame: everything but the shadow map is redone.
+                    frame.camera.yaw_deg = if frame.camera.yaw_deg == 0.0 {
+                        1.0
+                    } else {
+                        0.0
+                    };
                     renderer
                         .prepare(&device, &queue, &frame, [size, size])
                         .unwrap();
@@ -99,41 +118,63 @@ fn previews(c: &mut Criterion) {
                 })
             });
         }
+        for (name, object, environment, draft) in [
+            ("sphere", &sphere, false, false),
+            ("sphere, draft", &sphere, false, true),
+            ("torus mesh", &torus, false, false),
+            ("sphere with the environment", &sphere, true, false),
+            ("sphere with the environment, draft", &sphere, true, true),
+        ] {
+            renderer.set_object(object).unwrap();
+            let frame = PreviewFrame {
+                mode: PreviewMode::Reconstruction,
+                interpolate: true,
+                environment: environment.then(EnvironmentLight::default),
+                draft,
+                ..PreviewFrame::default()
+            };
+            let mut which = 0;
+            group.bench_function(
+                format!("snapshot: {name}, reconstruction K=20 interpolated {size}²"),
+                |b| {
+                    b.iter(|| {
+                        which ^= 1;
+                        renderer.set_coefficients(&coefficients[which]).unwrap();
+                        renderer
+                            .prepare(&device, &queue, &frame, [size, size])
+                            .unwrap();
+                        wait(&device);
+                    })
+                },
+            );
+        }
         renderer.set_object(&sphere).unwrap();
         let frame = PreviewFrame {
             mode: PreviewMode::Reconstruction,
             interpolate: true,
             ..PreviewFrame::default()
         };
-        let mut which = 0;
-        group.bench_function(
-            format!("sphere reconstruction K=20 with new coefficients, interpolated {size}²"),
-            |b| {
-                b.iter(|| {
-                    which ^= 1;
-                    renderer.set_coefficients(&coefficients[which]).unwrap();
-                    renderer
-                        .prepare(&device, &queue, &frame, [size, size])
-                        .unwrap();
-                    wait(&device);
-                })
-            },
-        );
+        group.bench_function(format!("unchanged frame {size}²"), |b| {
+            b.iter(|| {
+                renderer
+                    .prepare(&device, &queue, &frame, [size, size])
+                    .unwrap();
+                wait(&device);
+            })
+        });
     }
-    // The evaluation alone: a 1 × 1 frame after new coefficients.
-    let frame = PreviewFrame {
-        mode: PreviewMode::Reconstruction,
-        ..PreviewFrame::default()
-    };
+    // The evaluation of every pair (as for an export), read back.
     let mut which = 0;
-    group.bench_function("new coefficients: K=20 evaluation of all pairs", |b| {
-        b.iter(|| {
-            which ^= 1;
-            renderer.set_coefficients(&coefficients[which]).unwrap();
-            renderer.prepare(&device, &queue, &frame, [1, 1]).unwrap();
-            wait(&device);
-        })
-    });
+    group.bench_function(
+        "new coefficients: K=20 evaluation of all pairs, with readback",
+        |b| {
+            b.iter(|| {
+                which ^= 1;
+                renderer.set_coefficients(&coefficients[which]).unwrap();
+                renderer.reconstruction_table(&device, &queue).unwrap();
+            })
+        },
+    );
     // A dab's worth of sparse bins: 2,000 scattered pairs.
     let changes: Vec<(u32, Option<[f32; 3]>)> = (0..2000u32)
         .map(|i| ((i * 656_503) % PAIRS as u32, Some([0.2, 0.3, 0.4])))

@@ -6,6 +6,8 @@
 mod common;
 
 use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab};
+use burnish::inspect::LobeScale;
+use burnish::preview::{EnvironmentLight, PreviewObject};
 use burnish::scene::Scene;
 use egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
@@ -476,4 +478,192 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         .expect("an error is shown");
     assert!(error.text.contains("small.png"), "{}", error.text);
     assert!(harness.state().views[0].canvas.layers() == &imported);
+}
+
+/// A glossy reference material written as an EXR table, as File ▸ Load reference reads it.
+fn reference_table(dir: &std::path::Path) -> PathBuf {
+    use burnish::materials::models::{Distribution, Fresnel, Microfacet};
+    let glossy = Microfacet::isotropic(
+        Distribution::Ggx,
+        0.2,
+        Fresnel::Schlick {
+            f0: [0.9, 0.6, 0.3],
+        },
+    );
+    let path = dir.join("reference.exr");
+    burnish::table::exr_file::write_table_exr(&path, &burnish::materials::tabulate(&glossy))
+        .unwrap();
+    path
+}
+
+/// The preview's object is chosen apart from the painted view: the canvas keeps painting the
+/// sphere while the preview shows the torus, the material-test object or an OBJ; the preview
+/// changes with the choice and a missing OBJ says so and goes back to the painted view's.
+#[test]
+fn the_preview_object_is_chosen_apart_from_the_painted_view() {
+    let mut harness = open_app(config());
+    stroke(&mut harness, (0.3, 0.4), (0.7, 0.5));
+    let sphere = preview_pixels(&mut harness);
+    let mut seen = vec![sphere];
+    for object in [
+        PreviewObject::Builtin(burnish::scene::BuiltinShape::Torus),
+        PreviewObject::MaterialTest,
+        PreviewObject::Obj(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/meshes/bowl.obj"),
+        ),
+    ] {
+        harness.state_mut().set_preview_object(object.clone());
+        settle(&mut harness);
+        let pixels = preview_pixels(&mut harness);
+        for earlier in &seen {
+            assert!(
+                differing(earlier, &pixels) > 2000,
+                "{object:?} looks like an earlier object"
+            );
+        }
+        seen.push(pixels);
+        // The painted view is untouched: still the sphere, still its samples.
+        assert_eq!(harness.state().views[0].scene.object, "sphere");
+    }
+    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+
+    harness
+        .state_mut()
+        .perform(Action::OpenPreviewObject(PathBuf::from(
+            "/nonexistent/vase.obj",
+        )));
+    settle(&mut harness);
+    let error = harness
+        .state()
+        .notices
+        .iter()
+        .find(|n| n.is_error)
+        .expect("an error is shown");
+    assert!(error.text.contains("vase.obj"), "{}", error.text);
+    assert_eq!(
+        *harness.state().preview_object(),
+        PreviewObject::PaintedView
+    );
+}
+
+/// A reference material loads from an EXR table or a MERL binary; a broken file says which
+/// and what, and keeps what was loaded.
+#[test]
+fn a_reference_material_loads_and_a_bad_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut harness = open_app(config());
+    let exr = reference_table(dir.path());
+    harness.state_mut().perform(Action::LoadReference(exr));
+    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    let loaded = harness
+        .state()
+        .preview_state()
+        .reference
+        .clone()
+        .expect("loaded");
+    assert_eq!(loaded.name, "reference.exr");
+
+    let merl = dir.path().join("reference.binary");
+    burnish::table::merl::MerlBrdf::from_table(&loaded.table)
+        .write(&merl)
+        .unwrap();
+    harness.state_mut().perform(Action::LoadReference(merl));
+    assert_eq!(
+        harness
+            .state()
+            .preview_state()
+            .reference
+            .as_ref()
+            .unwrap()
+            .name,
+        "reference.binary"
+    );
+
+    let bad = dir.path().join("broken.binary");
+    std::fs::write(&bad, [0u8; 40]).unwrap();
+    harness.state_mut().perform(Action::LoadReference(bad));
+    let error = harness
+        .state()
+        .notices
+        .iter()
+        .find(|n| n.is_error)
+        .expect("an error is shown");
+    assert!(error.text.contains("broken.binary"), "{}", error.text);
+    assert_eq!(
+        harness
+            .state()
+            .preview_state()
+            .reference
+            .as_ref()
+            .unwrap()
+            .name,
+        "reference.binary"
+    );
+}
+
+/// The table tab's readout names the bins under the pointer and ρ there.
+#[test]
+fn the_table_readout_follows_the_pointer() {
+    let mut harness = open_app(config());
+    stroke(&mut harness, (0.3, 0.4), (0.7, 0.5));
+    harness.get_by_label("Table").click();
+    settle(&mut harness);
+    let plot = harness
+        .state()
+        .preview_state()
+        .table_rect
+        .expect("the table was laid out");
+    let at = plot.min + (plot.max - plot.min) * 0.25;
+    harness.event(Event::PointerMoved(at));
+    harness.run_steps(2);
+    let readout = harness
+        .state()
+        .preview_state()
+        .table_readout
+        .clone()
+        .expect("a readout under the pointer");
+    assert!(
+        readout.contains("light θ") && readout.contains("view θ") && readout.contains("ρ ("),
+        "{readout}"
+    );
+}
+
+#[test]
+fn inspection_view_snapshots() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut harness = open_app(config());
+    harness.state_mut().brush.colour = [1.6, 0.5, 0.2];
+    stroke(&mut harness, (0.25, 0.4), (0.75, 0.4));
+    harness
+        .state_mut()
+        .perform(Action::LoadReference(reference_table(dir.path())));
+
+    // The material-test object in the studio environment, beside the main light.
+    {
+        let app = harness.state_mut();
+        app.set_preview_object(PreviewObject::MaterialTest);
+        app.preview.environment = Some(EnvironmentLight::default());
+    }
+    settle(&mut harness);
+    window_snapshot(&mut harness, "preview_material_test_environment");
+
+    // Several incidence angles on a log scale, with the reference dashed.
+    harness.get_by_label("Lobe").click();
+    {
+        let state = harness.state_mut().preview_state_mut();
+        state.lobe_angles = vec![20.0, 70.0];
+        state.lobe_scale = LobeScale::Log { decades: 3 };
+    }
+    settle(&mut harness);
+    window_snapshot(&mut harness, "lobe_angles_log_reference");
+
+    // The table: viridis with its colour bar, observed and inconsistent bins marked.
+    harness.get_by_label("Table").click();
+    {
+        let state = harness.state_mut().preview_state_mut();
+        state.table_overlays.observed = true;
+        state.table_overlays.inconsistent = true;
+    }
+    settle(&mut harness);
+    window_snapshot(&mut harness, "table_viridis_overlays");
 }

@@ -27,6 +27,12 @@ pub enum Action {
     Redo,
     Recover,
     DiscardRecovery,
+    /// A BRDF to compare with in the preview: an EXR table or a MERL binary.
+    LoadReference(PathBuf),
+    /// An equirectangular OpenEXR image for the preview's environment light.
+    LoadEnvironment(PathBuf),
+    /// An OBJ file as the preview's object.
+    OpenPreviewObject(PathBuf),
 }
 
 const UNDO: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::Z);
@@ -67,6 +73,12 @@ impl BurnishApp {
                 if let Some(info) = self.recovery_offer.take() {
                     let _ = std::fs::remove_file(&info.path);
                 }
+                Ok(())
+            }
+            Action::LoadReference(path) => self.load_reference(&path),
+            Action::LoadEnvironment(path) => self.load_environment(&path),
+            Action::OpenPreviewObject(path) => {
+                self.set_preview_object(crate::preview::PreviewObject::Obj(path));
                 Ok(())
             }
         };
@@ -301,7 +313,12 @@ pub(super) fn shortcuts(app: &mut BurnishApp, ctx: &egui::Context) {
 }
 
 /// Native open dialog; the chosen path becomes an action.
-fn pick_open(app: &mut BurnishApp, title: &str, ext: &[&str], action: fn(PathBuf) -> Action) {
+pub(super) fn pick_open(
+    app: &mut BurnishApp,
+    title: &str,
+    ext: &[&str],
+    action: fn(PathBuf) -> Action,
+) {
     if let Some(path) = rfd::FileDialog::new()
         .set_title(title)
         .add_filter(ext.join(", "), ext)
@@ -378,6 +395,15 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
             }
             if ui.button("Export BRDF as MERL binary…").clicked() {
                 pick_save(app, "Export MERL BRDF", "binary", Action::ExportMerl);
+            }
+            ui.separator();
+            if ui.button("Load reference material…").clicked() {
+                pick_open(
+                    app,
+                    "Load reference material (EXR table or MERL binary)",
+                    &["exr", "binary"],
+                    Action::LoadReference,
+                );
             }
         });
         ui.menu_button("Edit", |ui| {

@@ -16,6 +16,7 @@ mod widgets;
 pub use actions::Action;
 pub use basis_job::{BasisJob, BasisStatus};
 pub use document::ViewDoc;
+pub use preview_panel::{PreviewState, Reference, TableOverlays, TableSource};
 
 use crate::basis::{Basis, BasisSpec};
 use crate::paint::{BrushPreset, BrushSettings, load_presets};

@@ -3,22 +3,82 @@
 
 use super::{BurnishApp, PreviewTab};
 use crate::basis::Basis;
-use crate::inspect::{incidence_plane, observed_mask, table_thumbnail};
-use crate::preview::{DirectionalLight, PreviewMode, Sky};
-use crate::scene::Object;
+use crate::inspect::{
+    LobeScale, Lookup, TableImage, TableWindow, bin_pair_angles, curves_bounds, incidence_plane,
+    lobe_curve, lobe_floor, lobe_peak, pair_marks, relative_uncertainty, viridis,
+};
+use crate::preview::{DirectionalLight, Environment, EnvironmentLight, PreviewMode, PreviewObject};
+use crate::scene::{BuiltinShape, Object};
 use crate::solver::Reconstruction;
-use crate::table::Rgb;
+use crate::table::{DIRECTIONS, Rgb, SymTable, pair_index};
 use crate::worker::Snapshot;
 use egui::{Color32, ColorImage, Sense, TextureHandle, TextureOptions, Vec2};
+use std::path::Path;
 use std::sync::Arc;
 
-/// Pixels per side of the table thumbnail.
-const TABLE_THUMBNAIL: usize = 405;
+/// Most pixels per side of the table image (it follows the plot's size below that).
+const TABLE_IMAGE_MAX: usize = 640;
+/// Decades the table's colour bar spans at most.
+const TABLE_DECADES: u8 = 6;
+/// Decades below the peak the lobe's log scale shows.
+const LOBE_DECADES: u8 = 3;
+/// The incidence angles offered for pinning beside the slider's.
+const MAX_LOBE_ANGLES: usize = 6;
 
-type LobeCache = (u64, f32, f32, Vec<(f64, Rgb)>);
+/// A material to compare with: a table loaded from an EXR table or a MERL binary.
+#[derive(Clone)]
+pub struct Reference {
+    pub name: String,
+    pub table: Arc<SymTable>,
+}
+
+/// What the preview object on the GPU is: the painted view's (id, object name), or a choice.
+#[derive(Clone, Debug, PartialEq)]
+enum ObjectKey {
+    View(u32, String),
+    Chosen(PreviewObject),
+}
+
+/// The lobes last plotted: what they were computed for, and per incidence angle the
+/// reconstruction's and the reference's samples.
+struct LobeCache {
+    key: (u64, Vec<u32>, u32, bool),
+    angles: Vec<f32>,
+    lobes: Vec<Vec<(f64, Rgb)>>,
+    reference: Vec<Vec<(f64, Rgb)>>,
+    /// The plot was autoscaled to these lobes.
+    scaled: bool,
+    scale: LobeScale,
+}
+
+/// Which BRDF the table tab shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TableSource {
+    #[default]
+    Reconstruction,
+    Reference,
+}
+
+/// The overlays the table tab draws over the colour map.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TableOverlays {
+    pub observed: bool,
+    pub inconsistent: bool,
+    /// Bins whose per-pair standard deviation is large against ρ (needs
+    /// [`PreviewState::uncertainty`]).
+    pub uncertain: bool,
+}
+
+/// The table image last made: for what, and its textures.
+struct TableCache {
+    key: (u64, TableSource, [i64; 4], [usize; 2], TableOverlays, usize),
+    image: TableImage,
+    range: (f32, f32),
+    texture: TextureHandle,
+    overlay: Option<TextureHandle>,
+}
 
 /// What the preview keeps between frames.
-#[derive(Default)]
 pub struct PreviewState {
     /// Why the GPU preview is unavailable, if it is.
     pub init_error: Option<String>,
@@ -32,13 +92,65 @@ pub struct PreviewState {
     pub last_drawn_version: u64,
     /// The basis the GPU holds.
     uploaded_basis: Option<Arc<Basis>>,
-    /// The object the GPU holds: (view id, object name).
-    uploaded_object: Option<(u32, String)>,
-    /// The lobe last plotted: snapshot version, θ and φ of incidence, and its samples.
+    uploaded_object: Option<ObjectKey>,
+    /// The preview's object, chosen apart from the painted view.
+    pub object: PreviewObject,
+    loaded_object: Option<(PreviewObject, Arc<Object>)>,
+    /// The image the environment light samples.
+    pub environment: Arc<Environment>,
+    uploaded_environment: Option<Arc<Environment>>,
+    /// A material to compare with, in the Lobe and Table tabs and as a preview mode.
+    pub reference: Option<Reference>,
+    uploaded_reference: Option<Arc<SymTable>>,
+    pub lobe_scale: LobeScale,
+    /// Incidence angles pinned beside the slider's, drawn together.
+    pub lobe_angles: Vec<f32>,
     lobe: Option<LobeCache>,
-    table: Option<(u64, TextureHandle, bool)>,
+    pub table_source: TableSource,
+    pub table_overlays: TableOverlays,
+    /// The part of the table the plot showed last, in bins.
+    table_window: TableWindow,
+    table: Option<TableCache>,
+    /// Per unordered pair, the standard deviation of ρ, when the engine estimates one; the
+    /// table tab's "uncertain" overlay draws it. (The solver does not provide it yet.)
+    pub uncertainty: Option<Arc<[f32]>>,
+    /// The readout under the pointer in the table tab, as shown.
+    pub table_readout: Option<String>,
+    /// Where the last frame drew the table plot, in points.
+    pub table_rect: Option<egui::Rect>,
     /// Where the last frame drew the object preview.
     pub last_rect: Option<egui::Rect>,
+}
+
+impl Default for PreviewState {
+    fn default() -> Self {
+        Self {
+            init_error: None,
+            render_state: None,
+            uploaded_version: None,
+            pending_sparse: Vec::new(),
+            last_drawn_version: 0,
+            uploaded_basis: None,
+            uploaded_object: None,
+            object: PreviewObject::PaintedView,
+            loaded_object: None,
+            environment: Arc::new(Environment::studio()),
+            uploaded_environment: None,
+            reference: None,
+            uploaded_reference: None,
+            lobe_scale: LobeScale::Linear,
+            lobe_angles: Vec::new(),
+            lobe: None,
+            table_source: TableSource::Reconstruction,
+            table_overlays: TableOverlays::default(),
+            table_window: TableWindow::FULL,
+            table: None,
+            uncertainty: None,
+            table_readout: None,
+            table_rect: None,
+            last_rect: None,
+        }
+    }
 }
 
 impl PreviewState {
@@ -97,13 +209,41 @@ impl PreviewState {
         }
     }
 
+    /// The object the preview draws: the chosen one, loaded once, or the painted view's.
+    fn preview_object(
+        &mut self,
+        view: Option<(u32, &str, &Arc<Object>)>,
+    ) -> Result<Option<(ObjectKey, Arc<Object>)>, String> {
+        if self.object == PreviewObject::PaintedView {
+            return Ok(view
+                .map(|(id, name, object)| (ObjectKey::View(id, name.to_owned()), object.clone())));
+        }
+        if self.loaded_object.as_ref().map(|(o, _)| o) != Some(&self.object) {
+            let object = self.object.load().map_err(|e| e.to_string())?;
+            let object = object.expect("a chosen object is not the painted view's");
+            self.loaded_object = Some((self.object.clone(), Arc::new(object)));
+        }
+        let (choice, object) = self.loaded_object.as_ref().expect("loaded above");
+        Ok(Some((ObjectKey::Chosen(choice.clone()), object.clone())))
+    }
+
     /// Hands the renderer what changed since the last frame: basis, coefficients, object,
-    /// sparse bins. Small writes only, except when the basis itself is new.
+    /// environment, reference table, sparse bins. Small writes only, except when the basis,
+    /// a reference or an environment is new.
     fn feed(
         &mut self,
         snapshot: &Snapshot,
-        object: Option<(u32, &str, &Object)>,
+        view: Option<(u32, &str, &Arc<Object>)>,
     ) -> Option<String> {
+        self.render_state.as_ref()?;
+        let object = match self.preview_object(view) {
+            Ok(object) => object,
+            Err(e) => {
+                // Back to the painted view's object; the error says why.
+                self.object = PreviewObject::PaintedView;
+                return Some(format!("preview object: {e}"));
+            }
+        };
         let rs = self.render_state.as_ref()?;
         let sparse = std::mem::take(&mut self.pending_sparse);
         let basis_changed = match (&snapshot.basis, &self.uploaded_basis) {
@@ -112,9 +252,20 @@ impl PreviewState {
             _ => false,
         };
         let coefficients_changed = basis_changed || self.uploaded_version != Some(snapshot.version);
-        let object_changed = object.is_some_and(|(id, name, _)| {
-            self.uploaded_object.as_ref() != Some(&(id, name.to_owned()))
-        });
+        let object_changed = object
+            .as_ref()
+            .is_some_and(|(key, _)| self.uploaded_object.as_ref() != Some(key));
+        let environment_changed = self
+            .uploaded_environment
+            .as_ref()
+            .is_none_or(|e| !Arc::ptr_eq(e, &self.environment));
+        let reference = self.reference.as_ref().map(|r| r.table.clone());
+        let reference_changed = match (&reference, &self.uploaded_reference) {
+            (Some(r), Some(u)) => !Arc::ptr_eq(r, u),
+            (Some(_), None) => true,
+            _ => false,
+        };
+        let environment = self.environment.clone();
         let result = crate::preview::with_renderer(
             rs,
             |renderer| -> Result<(), crate::preview::PreviewError> {
@@ -124,8 +275,14 @@ impl PreviewState {
                 if coefficients_changed && snapshot.basis.is_some() {
                     renderer.set_coefficients(&snapshot.coefficients)?;
                 }
-                if let (true, Some((_, _, object))) = (object_changed, object) {
+                if let (true, Some((_, object))) = (object_changed, &object) {
                     renderer.set_object(object)?;
+                }
+                if environment_changed {
+                    renderer.set_environment(&environment);
+                }
+                if let (true, Some(table)) = (reference_changed, &reference) {
+                    renderer.set_table(table)?;
                 }
                 if !sparse.is_empty() {
                     renderer.update_sparse(&sparse)?;
@@ -139,10 +296,79 @@ impl PreviewState {
         if coefficients_changed {
             self.uploaded_version = Some(snapshot.version);
         }
-        if let (true, Some((id, name, _))) = (object_changed, object) {
-            self.uploaded_object = Some((id, name.to_owned()));
+        if let (true, Some((key, _))) = (object_changed, object) {
+            self.uploaded_object = Some(key);
+        }
+        if environment_changed {
+            self.uploaded_environment = Some(environment);
+        }
+        if reference_changed {
+            self.uploaded_reference = reference;
         }
         result.err().map(|e| e.to_string())
+    }
+}
+
+impl BurnishApp {
+    /// Loads a reference material to compare with: an EXR table (TABLE.md) or a MERL binary
+    /// (`.binary`), chosen by the extension.
+    pub fn load_reference(&mut self, path: &Path) -> crate::Result<()> {
+        let is_merl = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("binary"));
+        let table = if is_merl {
+            let merl = crate::table::merl::MerlBrdf::read(path)?;
+            crate::materials::tabulate(&merl)
+        } else {
+            crate::table::exr_file::read_table_exr(path)?
+        };
+        if !table.is_physical() {
+            return Err(crate::Error::invalid(
+                path,
+                "the table has values that are negative or not finite",
+            ));
+        }
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into(),
+        );
+        self.preview_state.reference = Some(Reference {
+            name: name.clone(),
+            table: Arc::new(table),
+        });
+        self.preview_state.lobe = None;
+        self.preview_state.table = None;
+        self.notify(format!("reference material {name} loaded"));
+        Ok(())
+    }
+
+    /// Lights the preview with an equirectangular OpenEXR image instead of the bundled studio.
+    pub fn load_environment(&mut self, path: &Path) -> crate::Result<()> {
+        let environment = Environment::from_exr(path)?;
+        self.notify(format!("environment {} loaded", environment.name));
+        self.preview_state.environment = Arc::new(environment);
+        self.preview
+            .environment
+            .get_or_insert_with(EnvironmentLight::default);
+        Ok(())
+    }
+
+    /// The preview's own object (chosen apart from the painted view).
+    pub fn preview_object(&self) -> &PreviewObject {
+        &self.preview_state.object
+    }
+
+    pub fn set_preview_object(&mut self, object: PreviewObject) {
+        self.preview_state.object = object;
+    }
+
+    /// The preview's panel state: reference, lobe and table settings.
+    pub fn preview_state_mut(&mut self) -> &mut PreviewState {
+        &mut self.preview_state
+    }
+
+    pub fn preview_state(&self) -> &PreviewState {
+        &self.preview_state
     }
 }
 
@@ -151,6 +377,8 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
         ui.selectable_value(&mut app.preview_tab, PreviewTab::Object, "Object");
         ui.selectable_value(&mut app.preview_tab, PreviewTab::Lobe, "Lobe");
         ui.selectable_value(&mut app.preview_tab, PreviewTab::Table, "Table");
+        ui.separator();
+        reference_controls(app, ui);
     });
     ui.separator();
     match app.preview_tab {
@@ -160,7 +388,52 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
     }
 }
 
+fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    match &app.preview_state.reference {
+        Some(reference) => {
+            ui.label(format!("reference: {}", reference.name))
+                .on_hover_text("Drawn dashed in the Lobe tab; a mode of the Object tab");
+            if ui
+                .small_button("×")
+                .on_hover_text("Forget the reference")
+                .clicked()
+            {
+                app.preview_state.reference = None;
+                app.preview_state.lobe = None;
+                app.preview_state.table_source = TableSource::Reconstruction;
+                if app.preview.mode == PreviewMode::Table {
+                    app.preview.mode = PreviewMode::Reconstruction;
+                }
+            }
+        }
+        None => {
+            if ui
+                .small_button("Load reference…")
+                .on_hover_text("A BRDF to compare with: an EXR table or a MERL binary")
+                .clicked()
+            {
+                super::actions::pick_open(
+                    app,
+                    "Load reference material",
+                    &["exr", "binary"],
+                    super::Action::LoadReference,
+                );
+            }
+        }
+    }
+}
+
+const OBJECTS: [PreviewObject; 6] = [
+    PreviewObject::PaintedView,
+    PreviewObject::Builtin(BuiltinShape::Sphere),
+    PreviewObject::Builtin(BuiltinShape::Torus),
+    PreviewObject::Builtin(BuiltinShape::RoundedCube),
+    PreviewObject::Builtin(BuiltinShape::Blob),
+    PreviewObject::MaterialTest,
+];
+
 fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    let has_reference = app.preview_state.reference.is_some();
     let frame = &mut app.preview;
     ui.horizontal_wrapped(|ui| {
         ui.selectable_value(
@@ -173,10 +446,36 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
             .on_hover_text("Only what the paintings give directly; grey where no view reached");
         ui.selectable_value(&mut frame.mode, PreviewMode::GuideMaterial, "Guide")
             .on_hover_text("The guide's grey diffuse material");
+        ui.add_enabled_ui(has_reference, |ui| {
+            ui.selectable_value(&mut frame.mode, PreviewMode::Table, "Reference")
+                .on_hover_text("The reference material loaded to compare with")
+                .on_disabled_hover_text("Load a reference material first");
+        });
     });
+    let mut open_obj = false;
     ui.horizontal_wrapped(|ui| {
+        let label = ui.label("object");
+        let state = &mut app.preview_state;
+        egui::ComboBox::from_id_salt("preview object")
+            .selected_text(state.object.label())
+            .show_ui(ui, |ui| {
+                for choice in OBJECTS {
+                    let text = choice.label();
+                    ui.selectable_value(&mut state.object, choice, text);
+                }
+                if ui.button("Open OBJ…").clicked() {
+                    open_obj = true;
+                }
+            })
+            .response
+            .labelled_by(label.id)
+            .on_hover_text("What the preview shows the material on, apart from the painted view");
+        let frame = &mut app.preview;
         ui.checkbox(&mut frame.shadows, "shadows");
         ui.checkbox(&mut frame.interpolate, "interpolate bins");
+    });
+    let frame = &mut app.preview;
+    ui.horizontal_wrapped(|ui| {
         let mut second = frame.second_light.is_some();
         if ui.checkbox(&mut second, "second light").changed() {
             frame.second_light = second.then_some(DirectionalLight {
@@ -185,9 +484,13 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 intensity: 0.5,
             });
         }
-        let mut sky = frame.sky.is_some();
-        if ui.checkbox(&mut sky, "sky").changed() {
-            frame.sky = sky.then_some(Sky { radiance: 0.15 });
+        let mut environment = frame.environment.is_some();
+        if ui
+            .checkbox(&mut environment, "environment")
+            .on_hover_text("Light from an HDR image all around, through the same BRDF table")
+            .changed()
+        {
+            frame.environment = environment.then(EnvironmentLight::default);
         }
         ui.add(
             egui::Slider::new(&mut frame.exposure_stops, -6.0..=6.0)
@@ -195,12 +498,47 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .suffix(" EV"),
         );
     });
+    let mut load_environment = false;
+    if let Some(environment) = &mut frame.environment {
+        ui.horizontal_wrapped(|ui| {
+            ui.label(format!(
+                "environment: {}",
+                app.preview_state.environment.name
+            ));
+            ui.add(egui::Slider::new(&mut environment.intensity, 0.0..=4.0).text("intensity"));
+            ui.add(
+                egui::Slider::new(&mut environment.rotation_deg, -180.0..=180.0)
+                    .text("turn")
+                    .suffix("°"),
+            );
+            load_environment = ui
+                .small_button("Load HDR…")
+                .on_hover_text("An equirectangular OpenEXR image")
+                .clicked();
+        });
+    }
     if let Some(light) = &mut frame.second_light {
         ui.horizontal(|ui| {
             ui.label("second light");
             ui.add(egui::Slider::new(&mut light.intensity, 0.0..=2.0).text("intensity"));
             super::widgets::light_dial(ui, &mut light.elevation_deg, &mut light.azimuth_deg);
         });
+    }
+    if open_obj {
+        super::actions::pick_open(
+            app,
+            "Preview object",
+            &["obj"],
+            super::Action::OpenPreviewObject,
+        );
+    }
+    if load_environment {
+        super::actions::pick_open(
+            app,
+            "Environment (equirectangular EXR)",
+            &["exr"],
+            super::Action::LoadEnvironment,
+        );
     }
 }
 
@@ -239,9 +577,12 @@ fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         && let Some(doc) = app.active_view()
     {
         let scene = doc.scene.clone();
-        let mode = app.preview.mode;
+        let previous = app.preview.clone();
         app.preview = crate::preview::PreviewFrame::from_scene(&scene);
-        app.preview.mode = mode;
+        app.preview.mode = previous.mode;
+        app.preview.environment = previous.environment;
+        app.preview.second_light = previous.second_light;
+        app.preview.exposure_stops = previous.exposure_stops;
         app.preview.interpolate = true;
     }
     if app.preview_state.render_state.is_none() {
@@ -263,20 +604,31 @@ fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         );
         return;
     }
+    if app.preview.mode == PreviewMode::Table && app.preview_state.reference.is_none() {
+        app.preview.mode = PreviewMode::Reconstruction;
+    }
     let snapshot = app.snapshot.clone();
-    let object = app
+    let view = app
         .views
         .get(app.active)
         .map(|doc| (doc.id, doc.scene.object.clone(), doc.object.clone()));
     let error = app.preview_state.feed(
         &snapshot,
-        object
-            .as_ref()
-            .map(|(id, name, o)| (*id, name.as_str(), o.as_ref())),
+        view.as_ref().map(|(id, name, o)| (*id, name.as_str(), o)),
     );
     if let Some(error) = error {
         app.notify_error(format!("preview: {error}"));
     }
+    // While a stroke is painted on the canvas, a draft (a quarter of the gather); the stroke's
+    // end refines it.
+    let canvas = app.canvas_layout().map(|(rect, _)| rect);
+    app.preview.draft = ui.input(|i| {
+        i.pointer.primary_down()
+            && i.pointer
+                .press_origin()
+                .zip(canvas)
+                .is_some_and(|(origin, canvas)| canvas.contains(origin))
+    });
     let ppp = ui.ctx().pixels_per_point();
     ui.painter().add(crate::preview::paint_callback(
         rect,
@@ -297,8 +649,20 @@ fn current_reconstruction(app: &BurnishApp) -> Option<Reconstruction> {
         .then(|| Reconstruction::new(basis, &snapshot.coefficients))
 }
 
+/// Colours for several lobes at once: spread over viridis, skipping its darkest end (it
+/// hides on the plot's dark background).
+fn lobe_colour(i: usize, count: usize) -> Color32 {
+    let t = if count <= 1 {
+        0.7
+    } else {
+        0.3 + 0.7 * i as f32 / (count - 1) as f32
+    };
+    let [r, g, b] = viridis(t).map(|c| (c * 255.0).round() as u8);
+    Color32::from_rgb(r, g, b)
+}
+
 fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.add(
             egui::Slider::new(&mut app.lobe_theta_deg, 0.0..=89.0)
                 .text("θ in")
@@ -309,98 +673,515 @@ fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .text("φ in")
                 .suffix("°"),
         );
+        let state = &mut app.preview_state;
+        let theta = app.lobe_theta_deg.round();
+        if ui
+            .add_enabled(
+                state.lobe_angles.len() < MAX_LOBE_ANGLES && !state.lobe_angles.contains(&theta),
+                egui::Button::new("+ pin θ").small(),
+            )
+            .on_hover_text("Keep this incidence angle in the plot while the slider moves on")
+            .clicked()
+        {
+            state.lobe_angles.push(theta);
+        }
     });
+    ui.horizontal_wrapped(|ui| {
+        let state = &mut app.preview_state;
+        ui.selectable_value(&mut state.lobe_scale, LobeScale::Linear, "linear");
+        ui.selectable_value(
+            &mut state.lobe_scale,
+            LobeScale::Log {
+                decades: LOBE_DECADES,
+            },
+            "log",
+        )
+        .on_hover_text(format!(
+            "Radius: log10 of ρ·cos θ_out, {LOBE_DECADES} decades below the peak"
+        ));
+        let mut unpin = None;
+        for (i, angle) in state.lobe_angles.iter().enumerate() {
+            if ui
+                .small_button(format!("{angle:.0}° ×"))
+                .on_hover_text("Unpin")
+                .clicked()
+            {
+                unpin = Some(i);
+            }
+        }
+        if let Some(i) = unpin {
+            state.lobe_angles.remove(i);
+        }
+    });
+    let mut angles = vec![app.lobe_theta_deg];
+    angles.extend(
+        app.preview_state
+            .lobe_angles
+            .iter()
+            .filter(|a| (**a - app.lobe_theta_deg).abs() > 0.5),
+    );
     let version = app.snapshot.version;
-    let (theta, phi) = (app.lobe_theta_deg, app.lobe_phi_deg);
-    let stale = app
-        .preview_state
-        .lobe
-        .as_ref()
-        .is_none_or(|(v, t, p, _)| *v != version || *t != theta || *p != phi);
+    let has_reference = app.preview_state.reference.is_some();
+    let key = (
+        version,
+        angles.iter().map(|a| a.to_bits()).collect::<Vec<_>>(),
+        app.lobe_phi_deg.to_bits(),
+        has_reference,
+    );
+    let scale = app.preview_state.lobe_scale;
+    let stale = app.preview_state.lobe.as_ref().is_none_or(|l| l.key != key);
     if stale && let Some(recon) = current_reconstruction(app) {
-        let points = incidence_plane(&recon, theta as f64, phi as f64);
-        app.preview_state.lobe = Some((version, theta, phi, points));
+        let phi = app.lobe_phi_deg as f64;
+        let eval = |l, v| recon.eval(l, v);
+        let lobes = angles
+            .iter()
+            .map(|&t| incidence_plane(&eval, t as f64, phi))
+            .collect();
+        let reference = match &app.preview_state.reference {
+            Some(r) => {
+                let table = r.table.clone();
+                let lookup = move |l, v| table.get(l, v);
+                angles
+                    .iter()
+                    .map(|&t| incidence_plane(&lookup, t as f64, phi))
+                    .collect()
+            }
+            None => Vec::new(),
+        };
+        app.preview_state.lobe = Some(LobeCache {
+            key,
+            angles: angles.clone(),
+            lobes,
+            reference,
+            scaled: false,
+            scale,
+        });
     }
-    let Some((_, _, _, points)) = &app.preview_state.lobe else {
+    let Some(cache) = &mut app.preview_state.lobe else {
         ui.label("The lobe appears when the basis is ready.");
         return;
     };
-    ui.label("ρ·cos θ_out in the plane of incidence (polar; light from the left)");
-    let colours = [
+    if cache.scale != scale {
+        cache.scale = scale;
+        cache.scaled = false;
+    }
+    let single = cache.angles.len() == 1;
+    ui.label(if single {
+        "ρ·cos θ_out in the plane of incidence, per channel (polar; light from the left)"
+    } else {
+        "luminance of ρ·cos θ_out in the plane of incidence (polar; light from the left)"
+    });
+    let peak = lobe_peak(
+        cache
+            .lobes
+            .iter()
+            .chain(&cache.reference)
+            .map(|l| l.as_slice()),
+    );
+    let floor = lobe_floor(scale, peak);
+    // (name, points, colour, dashed)
+    let mut curves: Vec<(String, Vec<[f64; 2]>, Color32, bool)> = Vec::new();
+    let channel_colours = [
         Color32::from_rgb(230, 80, 80),
         Color32::from_rgb(80, 200, 80),
         Color32::from_rgb(90, 120, 240),
     ];
+    for (i, (theta, lobe)) in cache.angles.iter().zip(&cache.lobes).enumerate() {
+        if single {
+            for c in 0..3 {
+                curves.push((
+                    ["R", "G", "B"][c].into(),
+                    lobe_curve(lobe, Some(c), scale, floor),
+                    channel_colours[c],
+                    false,
+                ));
+            }
+        } else {
+            curves.push((
+                format!("θ in {theta:.0}°"),
+                lobe_curve(lobe, None, scale, floor),
+                lobe_colour(i, cache.angles.len()),
+                false,
+            ));
+        }
+    }
+    for (i, (theta, lobe)) in cache.angles.iter().zip(&cache.reference).enumerate() {
+        let colour = if single {
+            Color32::from_gray(220)
+        } else {
+            lobe_colour(i, cache.angles.len())
+        };
+        curves.push((
+            format!("reference θ in {theta:.0}°"),
+            lobe_curve(lobe, None, scale, floor),
+            colour,
+            true,
+        ));
+    }
+    let (min, max) = curves_bounds(curves.iter().map(|c| c.1.as_slice()));
+    let reach = (max[0] - min[0]).max(max[1] - min[1]) * 0.5;
+    let rescale = !cache.scaled;
+    cache.scaled = true;
+    let log_rings = match scale {
+        LobeScale::Log { decades } => decades,
+        LobeScale::Linear => 0,
+    };
+    let angles_drawn = cache.angles.clone();
     egui_plot::Plot::new("lobe")
         .data_aspect(1.0)
         .allow_scroll(false)
+        .legend(egui_plot::Legend::default())
         .show(ui, |plot| {
-            for (c, colour) in colours.into_iter().enumerate() {
-                let line: Vec<[f64; 2]> = points
-                    .iter()
-                    .map(|(signed, rho)| {
-                        let t = signed.to_radians();
-                        let r = rho[c] as f64 * t.cos();
+            if rescale {
+                plot.set_plot_bounds(egui_plot::PlotBounds::from_min_max(min, max));
+            }
+            // Decade rings of the log scale, labelled by the value they stand for (unnamed, so
+            // that the legend lists only the lobes).
+            for ring in 1..=log_rings {
+                let r = f64::from(ring);
+                let circle: Vec<[f64; 2]> = (0..=90)
+                    .map(|k| {
+                        let t = (k as f64 * 2.0 - 90.0).to_radians();
                         [r * t.sin(), r * t.cos()]
                     })
                     .collect();
-                plot.line(egui_plot::Line::new(["R", "G", "B"][c], line).color(colour));
+                plot.line(
+                    egui_plot::Line::new("", circle)
+                        .color(Color32::from_gray(90))
+                        .style(egui_plot::LineStyle::dotted_dense()),
+                );
+                plot.text(
+                    egui_plot::Text::new(
+                        "",
+                        egui_plot::PlotPoint::new(0.0, r),
+                        format!("1e{}", floor as i32 + ring as i32),
+                    )
+                    .color(Color32::from_gray(150))
+                    .anchor(egui::Align2::LEFT_BOTTOM),
+                );
             }
-            let t = (theta as f64).to_radians();
-            plot.line(
-                egui_plot::Line::new("light", vec![[0.0, 0.0], [-t.sin(), t.cos()]])
-                    .color(Color32::from_rgb(255, 220, 120)),
-            );
+            for (name, points, colour, dashed) in curves {
+                let mut line = egui_plot::Line::new(name, points).color(colour);
+                if dashed {
+                    line = line.style(egui_plot::LineStyle::dashed_loose());
+                }
+                plot.line(line);
+            }
+            for (i, theta) in angles_drawn.iter().enumerate() {
+                let t = (*theta as f64).to_radians();
+                let colour = if single {
+                    Color32::from_rgb(255, 220, 120)
+                } else {
+                    lobe_colour(i, angles_drawn.len())
+                };
+                // The light's direction, unnamed: the lobe of the same colour names it.
+                plot.line(
+                    egui_plot::Line::new("", vec![[0.0, 0.0], [-t.sin() * reach, t.cos() * reach]])
+                        .color(colour.gamma_multiply(0.6)),
+                );
+            }
         });
 }
 
 fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
-    let version = app.snapshot.version;
-    let show_reached = app.show_overlay;
-    let stale = app
+    let has_reference = app.preview_state.reference.is_some();
+    let has_uncertainty = app.preview_state.uncertainty.is_some();
+    ui.horizontal_wrapped(|ui| {
+        let state = &mut app.preview_state;
+        ui.selectable_value(
+            &mut state.table_source,
+            TableSource::Reconstruction,
+            "reconstruction",
+        );
+        ui.add_enabled_ui(has_reference, |ui| {
+            ui.selectable_value(&mut state.table_source, TableSource::Reference, "reference")
+                .on_disabled_hover_text("Load a reference material first");
+        });
+        ui.separator();
+        let o = &mut state.table_overlays;
+        ui.checkbox(&mut o.observed, "observed")
+            .on_hover_text("Bins the paintings reached (green)");
+        ui.checkbox(&mut o.inconsistent, "inconsistent")
+            .on_hover_text("Bins where views or strokes disagree (red)");
+        ui.add_enabled_ui(has_uncertainty, |ui| {
+            ui.checkbox(&mut o.uncertain, "uncertain")
+                .on_hover_text("Bins whose standard deviation is large against ρ (magenta)")
+                .on_disabled_hover_text("The solver does not estimate a per-bin uncertainty yet");
+        });
+    });
+    if !has_reference {
+        app.preview_state.table_source = TableSource::Reconstruction;
+    }
+    let source = app.preview_state.table_source;
+    let recon = current_reconstruction(app);
+    let reference = app
+        .preview_state
+        .reference
+        .as_ref()
+        .map(|r| r.table.clone());
+    let lookup: Option<Box<Lookup>> = match source {
+        TableSource::Reconstruction => {
+            recon.map(|r| Box::new(move |l, v| r.eval(l, v)) as Box<Lookup>)
+        }
+        TableSource::Reference => {
+            reference.map(|t| Box::new(move |l, v| t.get(l, v)) as Box<Lookup>)
+        }
+    };
+    let Some(lookup) = lookup else {
+        ui.label("The table appears when the basis is ready.");
+        return;
+    };
+    ui.label("log ρ·cos θ_l·cos θ_v (luminance); x: view bin, y: light bin, 36 bins per 2° of θ");
+    let bar_width = 64.0;
+    let side = (ui.available_width() - bar_width)
+        .min(ui.available_height() - 2.0 * ui.spacing().interact_size.y)
+        .max(64.0);
+    let ppp = ui.ctx().pixels_per_point();
+    let pixels = ((side * ppp) as usize).clamp(16, TABLE_IMAGE_MAX);
+    let window = app.preview_state.table_window.clipped();
+    let overlays = app.preview_state.table_overlays;
+    let uncertainty_id = app
+        .preview_state
+        .uncertainty
+        .as_ref()
+        .map_or(0, |u| u.as_ptr() as usize);
+    let round = |v: f64| (v * 16.0).round() as i64;
+    let key = (
+        if source == TableSource::Reconstruction {
+            app.snapshot.version
+        } else {
+            0
+        },
+        source,
+        [
+            round(window.x[0]),
+            round(window.x[1]),
+            round(window.y[0]),
+            round(window.y[1]),
+        ],
+        [pixels, pixels],
+        overlays,
+        uncertainty_id,
+    );
+    if app
         .preview_state
         .table
         .as_ref()
-        .is_none_or(|(v, _, o)| *v != version || *o != show_reached);
-    if stale && let Some(recon) = current_reconstruction(app) {
-        let thumb = table_thumbnail(&recon, TABLE_THUMBNAIL);
-        let reached =
-            show_reached.then(|| observed_mask(app.observed.keys().copied(), TABLE_THUMBNAIL));
-        let inconsistent =
-            show_reached.then(|| observed_mask(app.inconsistent.iter().copied(), TABLE_THUMBNAIL));
-        let pixels = thumb
-            .pixels
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0) as u8;
-                let base = Color32::from_rgb(byte(p[0]), byte(p[1]), byte(p[2]));
-                match (&reached, &inconsistent) {
-                    (Some(_), Some(bad)) if bad[i] => Color32::from_rgb(255, 40, 40),
-                    (Some(seen), _) if seen[i] => Color32::from_rgb(60, 220, 90),
-                    (Some(_), _) => base.gamma_multiply(0.45),
-                    _ => base,
-                }
-            })
-            .collect();
-        let image = ColorImage::new([TABLE_THUMBNAIL, TABLE_THUMBNAIL], pixels);
-        let texture = ui
-            .ctx()
-            .load_texture("table", image, TextureOptions::NEAREST);
-        app.preview_state.table = Some((version, texture, show_reached));
+        .is_none_or(|t| t.key != key)
+    {
+        let image = TableImage::new(&*lookup, window, pixels, pixels);
+        let range = image.log_range(TABLE_DECADES);
+        let colours = image.colours(range);
+        let texture = ui.ctx().load_texture(
+            "table",
+            ColorImage::new(
+                [pixels, pixels],
+                colours
+                    .iter()
+                    .map(|c| Color32::from_rgb(c[0], c[1], c[2]))
+                    .collect(),
+            ),
+            TextureOptions::NEAREST,
+        );
+        let overlay = table_overlay(app, &*lookup, window, pixels).map(|image| {
+            ui.ctx()
+                .load_texture("table overlay", image, TextureOptions::NEAREST)
+        });
+        app.preview_state.table = Some(TableCache {
+            key,
+            image,
+            range,
+            texture,
+            overlay,
+        });
     }
-    ui.checkbox(
-        &mut app.show_overlay,
-        "mark observed (green) and inconsistent (red) bins",
+    let cache = app.preview_state.table.as_ref().expect("made above");
+    let shown = cache.image.window;
+    let centre = egui_plot::PlotPoint::new(
+        (shown.x[0] + shown.x[1]) / 2.0,
+        -(shown.y[0] + shown.y[1]) / 2.0,
     );
-    match &app.preview_state.table {
-        Some((_, texture, _)) => {
-            ui.label("log ρ·cos·cos; x = view direction, y = light direction");
-            let side = ui.available_width().min(ui.available_height()).max(64.0);
-            ui.image((texture.id(), Vec2::splat(side)));
+    let size = Vec2::new(
+        (shown.x[1] - shown.x[0]) as f32,
+        (shown.y[1] - shown.y[0]) as f32,
+    );
+    let n = DIRECTIONS as f64;
+    let mut window_now = window;
+    let mut hovered = None;
+    let mut table_rect = None;
+    ui.horizontal(|ui| {
+        let response = egui_plot::Plot::new("table")
+            .width(side)
+            .height(side)
+            .data_aspect(1.0)
+            .show_grid(false)
+            .include_x(0.0)
+            .include_x(n)
+            .include_y(0.0)
+            .include_y(-n)
+            .y_axis_formatter(|mark, _| format!("{:.0}", -mark.value))
+            .label_formatter(|_| None)
+            .show(ui, |plot| {
+                plot.image(egui_plot::PlotImage::new(
+                    "table",
+                    cache.texture.id(),
+                    centre,
+                    size,
+                ));
+                if let Some(overlay) = &cache.overlay {
+                    plot.image(egui_plot::PlotImage::new(
+                        "overlay",
+                        overlay.id(),
+                        centre,
+                        size,
+                    ));
+                }
+                let bounds = plot.plot_bounds();
+                window_now = TableWindow {
+                    x: [bounds.min()[0], bounds.max()[0]],
+                    y: [-bounds.max()[1], -bounds.min()[1]],
+                }
+                .clipped();
+                plot.pointer_coordinate()
+            });
+        hovered = response.inner;
+        table_rect = Some(response.response.rect);
+        colour_bar(ui, cache.range, side, bar_width);
+    });
+    if window_now != window {
+        app.preview_state.table_window = window_now;
+        ui.ctx().request_repaint();
+    }
+    let readout = hovered.and_then(|p| {
+        let (x, y) = (p.x, -p.y);
+        ((0.0..n).contains(&x) && (0.0..n).contains(&y)).then(|| {
+            let (d_l, d_v) = (y as u16, x as u16);
+            let [tl, pl, tv, pv] = bin_pair_angles(d_l, d_v);
+            let rho = lookup(d_l, d_v);
+            let pair = pair_index(d_l, d_v) as u32;
+            let state = if app.inconsistent.contains(&pair) {
+                " · inconsistent"
+            } else if app.observed.contains_key(&pair) {
+                " · observed"
+            } else {
+                ""
+            };
+            format!(
+                "light θ {tl:.0}° φ {pl:.0}° · view θ {tv:.0}° φ {pv:.0}° · ρ ({:.4}, {:.4}, {:.4}){state}",
+                rho[0], rho[1], rho[2]
+            )
+        })
+    });
+    ui.label(
+        readout
+            .clone()
+            .unwrap_or_else(|| "point at the table for (θ_l, φ_l, θ_v, φ_v) and ρ".into()),
+    );
+    app.preview_state.table_readout = readout;
+    app.preview_state.table_rect = table_rect;
+}
+
+/// The overlay image of the chosen bin marks, if any is on: observed green, inconsistent red,
+/// uncertain magenta with the relative uncertainty as opacity.
+fn table_overlay(
+    app: &BurnishApp,
+    lookup: &Lookup,
+    window: TableWindow,
+    pixels: usize,
+) -> Option<ColorImage> {
+    let o = app.preview_state.table_overlays;
+    let uncertainty = app
+        .preview_state
+        .uncertainty
+        .as_ref()
+        .filter(|_| o.uncertain);
+    if !(o.observed || o.inconsistent || uncertainty.is_some()) {
+        return None;
+    }
+    let mut image = vec![Color32::TRANSPARENT; pixels * pixels];
+    if let Some(sigma) = uncertainty
+        && let Some(alpha) = relative_uncertainty(sigma, lookup, window, pixels, pixels)
+    {
+        for (p, a) in image.iter_mut().zip(alpha) {
+            *p = Color32::from_rgba_unmultiplied(230, 60, 230, (a * 200.0) as u8);
         }
-        None => {
-            ui.label("The table appears when the basis is ready.");
+    }
+    // Zoomed out, a pixel holds several bins: a mark then covers its neighbours too, so that
+    // a single bin stays visible.
+    let spread = usize::from((window.x[1] - window.x[0]) > pixels as f64);
+    let dilate = |marks: Vec<bool>| {
+        let mut out = marks.clone();
+        for y in 0..pixels {
+            for x in 0..pixels {
+                if marks[y * pixels + x] {
+                    for yy in y.saturating_sub(spread)..=(y + spread).min(pixels - 1) {
+                        for xx in x.saturating_sub(spread)..=(x + spread).min(pixels - 1) {
+                            out[yy * pixels + xx] = true;
+                        }
+                    }
+                }
+            }
         }
+        out
+    };
+    if o.observed {
+        let marks = dilate(pair_marks(
+            app.observed.keys().copied(),
+            window,
+            pixels,
+            pixels,
+        ));
+        for (p, m) in image.iter_mut().zip(marks) {
+            if m {
+                *p = Color32::from_rgb(60, 220, 90);
+            }
+        }
+    }
+    if o.inconsistent {
+        let marks = dilate(pair_marks(
+            app.inconsistent.iter().copied(),
+            window,
+            pixels,
+            pixels,
+        ));
+        for (p, m) in image.iter_mut().zip(marks) {
+            if m {
+                *p = Color32::from_rgb(255, 40, 40);
+            }
+        }
+    }
+    Some(ColorImage::new([pixels, pixels], image))
+}
+
+/// A vertical viridis bar for log10 values in `range`, labelled at each decade.
+fn colour_bar(ui: &mut egui::Ui, range: (f32, f32), height: f32, width: f32) {
+    let (rect, _) = ui.allocate_exact_size(Vec2::new(width, height), Sense::hover());
+    let bar = egui::Rect::from_min_size(
+        rect.min + Vec2::new(4.0, 8.0),
+        Vec2::new(14.0, height - 16.0),
+    );
+    let steps = 64;
+    let painter = ui.painter();
+    for i in 0..steps {
+        let t = (i as f32 + 0.5) / steps as f32;
+        let [r, g, b] = viridis(t).map(|c| (c * 255.0).round() as u8);
+        let y1 = bar.max.y - bar.height() * i as f32 / steps as f32;
+        let y0 = bar.max.y - bar.height() * (i + 1) as f32 / steps as f32;
+        painter.rect_filled(
+            egui::Rect::from_min_max(egui::pos2(bar.min.x, y0), egui::pos2(bar.max.x, y1)),
+            0.0,
+            Color32::from_rgb(r, g, b),
+        );
+    }
+    let decades = (range.1 - range.0).round() as i32;
+    for k in 0..=decades {
+        let y = bar.max.y - bar.height() * k as f32 / decades.max(1) as f32;
+        painter.text(
+            egui::pos2(bar.max.x + 4.0, y),
+            egui::Align2::LEFT_CENTER,
+            format!("1e{}", range.0 as i32 + k),
+            egui::FontId::proportional(11.0),
+            ui.visuals().text_color(),
+        );
     }
 }

@@ -95,54 +95,22 @@ impl Default for DirectionalLight {
     }
 }
 
-/// Sky directions the scene pass takes at most (the uniform's array length).
-pub const MAX_SKY_DIRECTIONS: usize = 16;
-
-/// Directions per band of the sky quadrature, zenith first: 12 in all.
-const SKY_BANDS: [usize; 3] = [1, 4, 7];
-
-/// A uniform white sky over the upper hemisphere (world +y) of radiance `radiance`, no ground
-/// and no occlusion: a white Lambertian surface facing straight up shows `radiance`.
-///
-/// It is approximated by 12 directional lights over equal-area patches (a cap at the zenith,
-/// then bands of 4 and 7 patches), each aimed at its patch's centre (the mean of cos θ over the
-/// band) with the irradiance `radiance · 2π / 12`. So the sky's diffuse light is right on
-/// average, while a sharp highlight shows 12 separate glints rather than a smooth reflection.
+/// Light from the renderer's environment image (see [`super::Environment`]): its sampled
+/// directions, each evaluated through the BRDF table like a directional light. No cast shadows.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sky {
-    pub radiance: f64,
+pub struct EnvironmentLight {
+    /// Multiplies the image's radiance.
+    pub intensity: f64,
+    /// Turns the environment about the vertical, in degrees (toward +x from +z).
+    pub rotation_deg: f64,
 }
 
-impl Sky {
-    /// (unit direction, irradiance weight) of each quadrature light.
-    pub fn directions(&self) -> Vec<(DVec3, f64)> {
-        let total: usize = SKY_BANDS.iter().sum();
-        let weight = self.radiance * std::f64::consts::TAU / total as f64;
-        let mut out = Vec::with_capacity(total);
-        // cos of the polar angle (from +y) at the top of the current band.
-        let mut cos_top = 1.0;
-        let mut before = 0;
-        for (band, &count) in SKY_BANDS.iter().enumerate() {
-            // Equal area per direction: each band's 1 − cos θ grows by count / total.
-            let cos_bottom = 1.0 - (before + count) as f64 / total as f64;
-            let cos_centre = if band == 0 {
-                1.0
-            } else {
-                (cos_top + cos_bottom) / 2.0
-            };
-            let sin_centre = (1.0 - cos_centre * cos_centre).max(0.0).sqrt();
-            for i in 0..count {
-                // Alternate bands are turned by half a step so that patches interleave.
-                let phi =
-                    std::f64::consts::TAU * (i as f64 + 0.5 * (band % 2) as f64) / count as f64;
-                let dir = DVec3::new(sin_centre * phi.sin(), cos_centre, sin_centre * phi.cos());
-                out.push((dir, weight));
-            }
-            cos_top = cos_bottom;
-            before += count;
+impl Default for EnvironmentLight {
+    fn default() -> Self {
+        Self {
+            intensity: 1.0,
+            rotation_deg: 0.0,
         }
-        debug_assert!(out.len() <= MAX_SKY_DIRECTIONS);
-        out
     }
 }
 
@@ -155,8 +123,8 @@ pub struct PreviewFrame {
     pub light: DirectionalLight,
     /// An optional fill light (no cast shadows).
     pub second_light: Option<DirectionalLight>,
-    /// An optional sky (no cast shadows); see [`Sky`] for what it approximates.
-    pub sky: Option<Sky>,
+    /// An optional environment light (no cast shadows).
+    pub environment: Option<EnvironmentLight>,
     /// Cast shadows of the main light on meshes, from a shadow map. (A sphere, being convex,
     /// never shadows itself.)
     pub shadows: bool,
@@ -170,6 +138,9 @@ pub struct PreviewFrame {
     pub tangent_reference: [f64; 3],
     /// Linear colour off the object.
     pub background: [f32; 3],
+    /// Shade one pixel of each 2 × 2 block for the others (a quarter of the gather), as
+    /// while a stroke is being painted; the full frame refines it.
+    pub draft: bool,
 }
 
 impl Default for PreviewFrame {
@@ -187,12 +158,13 @@ impl PreviewFrame {
             camera: OrbitCamera::from_settings(&scene.camera),
             light: DirectionalLight::from_settings(&scene.light),
             second_light: None,
-            sky: None,
+            environment: None,
             shadows: scene.shadows,
             interpolate: false,
             exposure_stops: 0.0,
             tangent_reference: scene.tangent_reference,
             background: BACKGROUND,
+            draft: false,
         }
     }
 
@@ -250,10 +222,14 @@ impl PreviewFrame {
                 return Err("the second light needs finite angles and an intensity ≥ 0".into());
             }
         }
-        if let Some(sky) = &self.sky
-            && !(sky.radiance >= 0.0 && sky.radiance.is_finite())
+        if let Some(environment) = &self.environment
+            && !(environment.intensity >= 0.0
+                && environment.intensity.is_finite()
+                && environment.rotation_deg.is_finite())
         {
-            return Err("the sky's radiance must be finite and ≥ 0".into());
+            return Err(
+                "the environment's intensity must be finite and ≥ 0, its rotation finite".into(),
+            );
         }
         if self.background.iter().any(|v| !v.is_finite()) {
             return Err("the background colour must be finite".into());
@@ -270,6 +246,10 @@ pub(crate) const SHADOW_MAP_SIZE: u32 = 2048;
 const SHADOW_NORMAL_OFFSET: f64 = 1.5 * 2.0 / SHADOW_MAP_SIZE as f64;
 /// In normalised depth (the map's depth range is 3 units): half a texel's width.
 const SHADOW_DEPTH_BIAS: f64 = 0.5 * (2.0 / SHADOW_MAP_SIZE as f64) / 3.0;
+
+/// A draft frame reads one environment direction in this many (the sequence's prefix, each
+/// weighted this many times).
+const DRAFT_ENVIRONMENT_STRIDE: f32 = 4.0;
 
 /// The neutral checker that marks unobserved bins in sparse mode (linear).
 pub const UNOBSERVED: [[f32; 3]; 2] = [[0.10, 0.10, 0.10], [0.16, 0.16, 0.16]];
@@ -291,9 +271,9 @@ pub(crate) struct FrameUniforms {
     shadow_colour: [f32; 4],
     unobserved_a: [f32; 4],
     unobserved_b: [f32; 4],
+    background: [f32; 4],
     flags: [u32; 4],
     scalars: [f32; 4],
-    sky: [[f32; 4]; MAX_SKY_DIRECTIONS],
 }
 
 /// The camera's frame in world space and its projection, for a `width × height` target.
@@ -415,19 +395,21 @@ fn mat4(m: DMat4) -> [[f32; 4]; 4] {
 
 impl FrameUniforms {
     /// The uniform block for `frame` on a `width × height` target; `shadows` says whether the
-    /// shadow map holds the object (meshes only).
-    pub(crate) fn new(frame: &PreviewFrame, width: u32, height: u32, shadows: bool) -> Self {
+    /// shadow map holds the object (meshes only), `environment` how many environment
+    /// directions the shading reads (0: none).
+    pub(crate) fn new(
+        frame: &PreviewFrame,
+        width: u32,
+        height: u32,
+        shadows: bool,
+        environment: u32,
+    ) -> Self {
         let camera = CameraFrame::new(&frame.camera, width, height);
         let perspective = frame.camera.projection == Projection::Perspective;
         let light = frame.light.direction();
         let light1 = frame
             .second_light
             .map_or([0.0; 4], |l| vec4(l.direction(), l.intensity));
-        let sky_directions = frame.sky.map(|s| s.directions()).unwrap_or_default();
-        let mut sky = [[0.0; 4]; MAX_SKY_DIRECTIONS];
-        for (slot, (dir, weight)) in sky.iter_mut().zip(&sky_directions) {
-            *slot = vec4(*dir, *weight);
-        }
         let rgb = |c: [f32; 3]| [c[0], c[1], c[2], 1.0];
         let (w, h) = (width.max(1) as f32, height.max(1) as f32);
         Self {
@@ -444,19 +426,24 @@ impl FrameUniforms {
             shadow_colour: rgb(SHADOW),
             unobserved_a: rgb(UNOBSERVED[0]),
             unobserved_b: rgb(UNOBSERVED[1]),
+            background: rgb(frame.background),
             flags: [
                 frame.mode as u32,
                 frame.interpolate as u32,
                 (frame.shadows && shadows) as u32,
-                sky_directions.len().min(MAX_SKY_DIRECTIONS) as u32,
+                environment,
             ],
             scalars: [
                 frame.exposure_stops.exp2() as f32,
                 SHADOW_NORMAL_OFFSET as f32,
                 SHADOW_DEPTH_BIAS as f32,
-                0.0,
+                // A draft reads the first quarter of the environment's directions.
+                if frame.draft {
+                    DRAFT_ENVIRONMENT_STRIDE
+                } else {
+                    1.0
+                },
             ],
-            sky,
         }
     }
 }
@@ -465,25 +452,6 @@ impl FrameUniforms {
 mod tests {
     use super::*;
     use crate::scene::CameraRig;
-
-    #[test]
-    fn sky_quadrature_integrates_the_hemisphere() {
-        let sky = Sky { radiance: 1.0 };
-        let dirs = sky.directions();
-        assert_eq!(dirs.len(), 12);
-        let total: f64 = dirs.iter().map(|(_, w)| w).sum();
-        assert!((total - std::f64::consts::TAU).abs() < 1e-12);
-        // A white Lambertian facing up: Σ (1/π) cos θ w ≈ 1 (exactly 1 for the true sky).
-        let up: f64 = dirs
-            .iter()
-            .map(|(d, w)| d.y.max(0.0) * w / std::f64::consts::PI)
-            .sum();
-        assert!((up - 1.0).abs() < 0.02, "{up}");
-        assert!(
-            dirs.iter()
-                .all(|(d, _)| (d.length() - 1.0).abs() < 1e-12 && d.y > 0.0)
-        );
-    }
 
     #[test]
     fn camera_matches_the_scene_rig_and_projects_pixel_centres() {
@@ -534,10 +502,7 @@ mod tests {
 
     #[test]
     fn uniform_layout_is_what_the_shader_expects() {
-        // 2 mat4 + 13 vec4 + 16 vec4.
-        assert_eq!(
-            std::mem::size_of::<FrameUniforms>(),
-            2 * 64 + 13 * 16 + 16 * 16
-        );
+        // 2 mat4 + 14 vec4 (shaders/frame.wgsl).
+        assert_eq!(std::mem::size_of::<FrameUniforms>(), 2 * 64 + 14 * 16);
     }
 }

@@ -7,28 +7,41 @@
 //! costs 1.3 M × K multiply-adds, less than evaluating per fragment (16 interpolation taps per
 //! pixel and light: 3.3 M pairs for a sphere at 512², and again every frame the camera moves).
 //!
-//! Each frame, [`PreviewRenderer::prepare`] renders the object in linear radiance (times the
-//! exposure) into its own `Rgba32Float` texture with its own depth buffer and shadow map;
-//! [`PreviewRenderer::paint`] then copies that texture into the caller's render pass, one
-//! texel per pixel, clamped to [0, 1] and sRGB-encoded unless the target format is an
-//! `*Srgb` one (which encodes by itself). [`PreviewRenderer::render_to_image`] reads the
-//! linear texture back instead.
+//! What painting does not change is cached. When the camera, lights, object or size change,
+//! [`PreviewRenderer::prepare`] rasterises the object's positions and normals, renders the
+//! shadow map, and a set-up pass stores per pixel its light and view bins, interpolation
+//! fractions, cos θ_l × irradiance × shadow: a geometry buffer. A new snapshot then costs the
+//! evaluation of the pairs that buffer reads and one gather pass, which writes linear radiance
+//! (times the exposure) into the renderer's own `Rgba32Float` texture; with nothing changed,
+//! `prepare` draws nothing. [`PreviewRenderer::paint`] copies that texture into the caller's
+//! render pass, one texel per pixel, clamped to [0, 1] and sRGB-encoded unless the target
+//! format is an `*Srgb` one (which encodes by itself). [`PreviewRenderer::render_to_image`]
+//! reads the linear texture back instead.
+//!
+//! Besides the directional lights, an environment light samples an HDR equirectangular image
+//! ([`Environment`]; the bundled studio is made here) at [`ENVIRONMENT_DIRECTIONS`]
+//! directions through the same table. The object may be the painted view's or any other
+//! ([`PreviewObject`], with the [`material_test_object`] made here).
 //!
 //! Radiance follows TABLE.md: a directional light of irradiance π gives π · ρ · cos θ_l, no
 //! light below the horizon, bins and shading frames exactly as `scene::render_table` uses them,
 //! so a frame from [`PreviewFrame::from_scene`] with nearest bins reproduces `burnish render`.
 
 mod egui_glue;
+mod environment;
 mod frame;
+mod objects;
 mod renderer;
 
 pub use egui_glue::{
     PreviewCallback, install, install_in, paint_callback, physical_size, with_renderer,
 };
+pub use environment::{Environment, EnvironmentSample};
 pub use frame::{
-    DirectionalLight, MAX_SKY_DIRECTIONS, OrbitCamera, PreviewFrame, PreviewMode, Sky, UNOBSERVED,
+    DirectionalLight, EnvironmentLight, OrbitCamera, PreviewFrame, PreviewMode, UNOBSERVED,
 };
-pub use renderer::{PreviewRenderer, TargetLayout};
+pub use objects::{PreviewObject, material_test_object};
+pub use renderer::{ENVIRONMENT_DIRECTIONS, PassCounts, PreviewRenderer, TargetLayout};
 
 /// What went wrong in the preview.
 #[derive(Debug, thiserror::Error)]

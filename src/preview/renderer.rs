@@ -1,7 +1,8 @@
 //! The preview's GPU side: buffers, pipelines and passes.
 
 use super::PreviewError;
-use super::frame::{FrameUniforms, PreviewFrame, PreviewMode, SHADOW_MAP_SIZE};
+use super::environment::{Environment, EnvironmentSample};
+use super::frame::{EnvironmentLight, FrameUniforms, PreviewFrame, PreviewMode, SHADOW_MAP_SIZE};
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::image_io::RgbImage;
 use crate::scene::Object;
@@ -10,9 +11,18 @@ use half::f16;
 use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
-/// The scene pass's colour format: linear, unclamped, exact enough to compare with the CPU.
+/// The radiance the gather pass writes: linear, unclamped, exact enough to compare with the
+/// CPU. The geometry raster's position and normal targets use it too.
 const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// u32 words per pixel of the geometry record (`RECORD` in shaders/shade.wgsl).
+const RECORD_WORDS: u64 = 20;
+/// Side of the set-up and gather passes' workgroups (shaders/shade.wgsl).
+const PIXEL_TILE: u32 = 8;
+/// Directions the environment light is sampled at. Each costs every pixel a table read per
+/// gather, so this is what a new snapshot can afford on a software rasteriser (a draft uses
+/// the first quarter); a glossy material shows the softboxes as clusters of glints.
+pub const ENVIRONMENT_DIRECTIONS: usize = 64;
 /// Invocations per workgroup of the reconstruction pass (shaders/reconstruct.wgsl).
 const WORKGROUP_SIZE: u32 = 256;
 /// Pairs packed and uploaded at a time when a basis is set, to bound the staging memory.
@@ -44,7 +54,6 @@ impl TargetLayout {
         }
     }
 }
-
 /// Vertex and index buffers of a mesh object.
 struct GpuMesh {
     vertices: wgpu::Buffer,
@@ -68,51 +77,83 @@ struct GpuBasis {
     listed_counts: wgpu::Buffer,
     pairs_bind_group: wgpu::BindGroup,
 }
-
-/// What decides which pairs a frame of the reconstruction reads: the frame without the
-/// settings that only scale or surround the picture, its size and the object.
+/// What the geometry records of a frame depend on: the frame without the settings that only
+/// scale or surround the picture, its size, the object and the environment. Painting changes
+/// none of it, so a new snapshot re-runs only the gather pass.
 #[derive(Clone, Debug, PartialEq)]
-struct MarksKey {
+struct GeometryKey {
     frame: PreviewFrame,
     size: [u32; 2],
     object_generation: u64,
+    environment_generation: u64,
 }
 
-impl MarksKey {
-    fn new(frame: &PreviewFrame, size: [u32; 2], object_generation: u64) -> Self {
+impl GeometryKey {
+    fn new(
+        frame: &PreviewFrame,
+        size: [u32; 2],
+        object_generation: u64,
+        environment_generation: u64,
+    ) -> Self {
         let mut frame = frame.clone();
         frame.exposure_stops = 0.0;
         frame.background = [0.0; 3];
+        frame.draft = false;
         Self {
             frame,
             size,
             object_generation,
+            environment_generation,
         }
     }
+}
+
+/// What the radiance texture shows: the frame, and the generation of the values it read.
+#[derive(Clone, Debug, PartialEq)]
+struct ShadeKey {
+    frame: PreviewFrame,
+    size: [u32; 2],
+    values_generation: u64,
 }
 
 /// How much of the reconstruction a frame re-evaluates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Evaluation {
-    /// Nothing changed that the view reads.
-    None,
-    /// Only the pairs the view was seen to read, with the last frame of the same geometry.
+    /// Only the pairs the view reads (listed by the set-up pass).
     Listed,
-    /// Every pair; the scene pass then marks what the view reads.
+    /// Every pair.
     All,
 }
 
-/// The off-screen targets of one size.
+/// The off-screen targets of one size: the geometry raster's position, normal and depth,
+/// the per-pixel records, and the radiance the gather pass writes.
 struct Target {
     size: [u32; 2],
-    colour: wgpu::Texture,
-    colour_view: wgpu::TextureView,
+    position_view: wgpu::TextureView,
+    normal_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
+    records: wgpu::Buffer,
+    radiance: wgpu::Texture,
+    radiance_view: wgpu::TextureView,
     present_bind_group: wgpu::BindGroup,
+}
+
+/// How many times [`PreviewRenderer::prepare`] ran each kind of pass: what caching saved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassCounts {
+    /// Geometry raster and per-pixel set-up (camera, lights, object, environment or size).
+    pub geometry: u64,
+    /// Reconstruction of the pairs the view reads (new coefficients or a new view).
+    pub evaluations: u64,
+    /// Gather passes: frames actually drawn.
+    pub gathers: u64,
 }
 
 /// The object seen in the last shadow pass: light direction and object generation.
 type ShadowKey = ([f32; 3], u64);
+
+/// The environment as uploaded: generation, rotation and intensity bits.
+type EnvironmentKey = (u64, u64, u64);
 
 /// Draws an object with a tabulated BRDF; see the module documentation.
 ///
@@ -124,12 +165,15 @@ pub struct PreviewRenderer {
     limits: wgpu::Limits,
     layout: TargetLayout,
 
-    scene_layout: wgpu::BindGroupLayout,
+    shade_layout: wgpu::BindGroupLayout,
     compute_layout: wgpu::BindGroupLayout,
     present_layout: wgpu::BindGroupLayout,
     sphere_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
     shadow_pipeline: wgpu::RenderPipeline,
+    setup_pipeline: wgpu::ComputePipeline,
+    gather_pipeline: wgpu::ComputePipeline,
+    draft_pipeline: wgpu::ComputePipeline,
     compute_pipeline: wgpu::ComputePipeline,
     listed_pipeline: wgpu::ComputePipeline,
     pairs_layout: wgpu::BindGroupLayout,
@@ -138,7 +182,7 @@ pub struct PreviewRenderer {
     present_pipeline: wgpu::RenderPipeline,
 
     frame_uniforms: wgpu::Buffer,
-    shadow_bind_group: wgpu::BindGroup,
+    raster_bind_group: wgpu::BindGroup,
     present_options: wgpu::Buffer,
     shadow_view: wgpu::TextureView,
     shadow_sampler: wgpu::Sampler,
@@ -155,14 +199,27 @@ pub struct PreviewRenderer {
     reconstruction_stale: bool,
     /// Every pair holds the current coefficients' value (not only the listed ones).
     reconstruction_complete: bool,
-    /// The geometry the basis's marks and list were gathered for.
-    marks_key: Option<MarksKey>,
+    /// The basis's marks and list hold the pairs of the current geometry.
+    listed: bool,
+    /// The geometry the records were set up for.
+    geometry_key: Option<GeometryKey>,
+    /// What the radiance texture holds.
+    shaded: Option<ShadeKey>,
+    /// Bumped whenever any ρ a frame may read changes (coefficients, sparse bins, table).
+    values_generation: u64,
     table: Option<wgpu::Buffer>,
     sparse: wgpu::Buffer,
     /// The sparse buffer's contents, so that changed runs can be uploaded whole.
     sparse_words: Vec<u32>,
+    environment: Environment,
+    environment_samples: Vec<EnvironmentSample>,
+    environment_generation: u64,
+    /// Directions as rotated and scaled for the GPU, two vec4 each.
+    environment_buffer: wgpu::Buffer,
+    uploaded_environment: Option<EnvironmentKey>,
     target: Option<Target>,
     last_error: Option<String>,
+    counts: PassCounts,
 }
 
 /// Creates buffers and textures under an out-of-memory error scope, so that a device that
@@ -238,7 +295,6 @@ fn component_scale(rows: &[f32]) -> Result<f32, PreviewError> {
     let exponent = 14 - largest.log2().ceil() as i32;
     Ok(2f32.powi(exponent))
 }
-
 impl PreviewRenderer {
     /// A renderer that paints into single-sampled passes without depth of `target_format`.
     pub fn new(
@@ -263,8 +319,24 @@ impl PreviewRenderer {
 
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let scene_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("preview scene"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/preview.wgsl").into()),
+            label: Some("preview geometry"),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(
+                    include_str!("../../shaders/frame.wgsl"),
+                    include_str!("../../shaders/preview.wgsl")
+                )
+                .into(),
+            ),
+        });
+        let shade_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("preview shading"),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(
+                    include_str!("../../shaders/frame.wgsl"),
+                    include_str!("../../shaders/shade.wgsl")
+                )
+                .into(),
+            ),
         });
         let compute_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("preview reconstruction"),
@@ -280,36 +352,52 @@ impl PreviewRenderer {
         });
 
         let fragment = wgpu::ShaderStages::FRAGMENT;
-        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("preview scene"),
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let raster_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("preview geometry"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX | fragment)],
+        });
+        let float_texture = |binding, sample_type| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: compute,
+            ty: wgpu::BindingType::Texture {
+                sample_type,
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
+        let shade_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("preview shading"),
             entries: &[
-                uniform_entry(0, wgpu::ShaderStages::VERTEX | fragment),
-                storage_entry(1, fragment, true),
-                storage_entry(2, fragment, true),
+                uniform_entry(0, compute),
+                storage_entry(1, compute, true),
+                storage_entry(2, compute, true),
+                float_texture(3, unfilterable),
+                float_texture(4, unfilterable),
+                float_texture(5, wgpu::TextureSampleType::Depth),
                 wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: fragment,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: fragment,
+                    binding: 6,
+                    visibility: compute,
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
                     count: None,
                 },
-                storage_entry(5, fragment, false),
+                storage_entry(7, compute, false),
+                storage_entry(8, compute, false),
+                storage_entry(9, compute, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 10,
+                    visibility: compute,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: RADIANCE_FORMAT,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                    },
+                    count: None,
+                },
             ],
         });
-        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("preview shadow"),
-            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
-        });
-        let compute = wgpu::ShaderStages::COMPUTE;
         let compute_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("preview reconstruction"),
             entries: &[
@@ -356,8 +444,8 @@ impl PreviewRenderer {
                 immediate_size: 0,
             })
         };
-        let scene_pipeline_layout = pipeline_layout(&scene_layout, "preview scene");
-        let shadow_pipeline_layout = pipeline_layout(&shadow_layout, "preview shadow");
+        let scene_pipeline_layout = pipeline_layout(&raster_layout, "preview geometry");
+        let shade_pipeline_layout = pipeline_layout(&shade_layout, "preview shading");
         let compute_pipeline_layout = pipeline_layout(&compute_layout, "preview reconstruction");
         let pairs_pipeline_layout = pipeline_layout(&pairs_layout, "preview view pairs");
         let present_pipeline_layout = pipeline_layout(&present_layout, "preview present");
@@ -376,11 +464,13 @@ impl PreviewRenderer {
                 bias: wgpu::DepthBiasState::default(),
             })
         };
-        let radiance_target = [Some(wgpu::ColorTargetState {
+        // World position (w: 1 on the object) and unit normal.
+        let geometry_target = Some(wgpu::ColorTargetState {
             format: RADIANCE_FORMAT,
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
-        })];
+        });
+        let geometry_targets = [geometry_target.clone(), geometry_target];
         // Open meshes (a bowl) show their inside: no culling, as the CPU ray caster.
         let primitive = wgpu::PrimitiveState::default();
         let scene_pipeline =
@@ -404,7 +494,7 @@ impl PreviewRenderer {
                         module: &scene_module,
                         entry_point: Some(fragment_entry),
                         compilation_options: Default::default(),
-                        targets: &radiance_target,
+                        targets: &geometry_targets,
                     }),
                     multiview_mask: None,
                     cache: None,
@@ -414,7 +504,7 @@ impl PreviewRenderer {
         let mesh_pipeline = scene_pipeline("preview mesh", "vs_mesh", "fs_mesh", &mesh_buffers);
         let shadow_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("preview shadow"),
-            layout: Some(&shadow_pipeline_layout),
+            layout: Some(&scene_pipeline_layout),
             vertex: wgpu::VertexState {
                 module: &scene_module,
                 entry_point: Some("vs_shadow"),
@@ -456,6 +546,24 @@ impl PreviewRenderer {
             &pairs_pipeline_layout,
             &pairs_module,
             "size_dispatch",
+        );
+        let setup_pipeline = compute_pipeline(
+            "preview set-up",
+            &shade_pipeline_layout,
+            &shade_module,
+            "setup",
+        );
+        let gather_pipeline = compute_pipeline(
+            "preview gather",
+            &shade_pipeline_layout,
+            &shade_module,
+            "gather",
+        );
+        let draft_pipeline = compute_pipeline(
+            "preview draft gather",
+            &shade_pipeline_layout,
+            &shade_module,
+            "gather_draft",
         );
         let compute_pipeline = compute_pipeline(
             "preview reconstruction",
@@ -503,6 +611,8 @@ impl PreviewRenderer {
             )));
         }
 
+        let environment = Environment::studio();
+        let environment_samples = environment.samples(ENVIRONMENT_DIRECTIONS);
         let (frame_uniforms, present_options, empty_values, sparse, shadow_texture) =
             allocate(device, || {
                 let frame_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
@@ -554,13 +664,21 @@ impl PreviewRenderer {
                     shadow_texture,
                 )
             })?;
-        let empty_marks = allocate(device, || {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("preview no pair marks"),
-                size: 16,
-                usage: wgpu::BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            })
+        let (empty_marks, environment_buffer) = allocate(device, || {
+            (
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("preview no pair marks"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                }),
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("preview environment directions"),
+                    size: (ENVIRONMENT_DIRECTIONS * 32) as u64,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+            )
         })?;
         let shadow_view = shadow_texture.create_view(&Default::default());
         let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -570,9 +688,9 @@ impl PreviewRenderer {
             compare: Some(wgpu::CompareFunction::LessEqual),
             ..Default::default()
         });
-        let shadow_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("preview shadow"),
-            layout: &shadow_layout,
+        let raster_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("preview geometry"),
+            layout: &raster_layout,
             entries: &[buffer_entry(0, &frame_uniforms)],
         });
 
@@ -581,12 +699,15 @@ impl PreviewRenderer {
             queue: queue.clone(),
             limits,
             layout,
-            scene_layout,
+            shade_layout,
             compute_layout,
             present_layout,
             sphere_pipeline,
             mesh_pipeline,
             shadow_pipeline,
+            setup_pipeline,
+            gather_pipeline,
+            draft_pipeline,
             compute_pipeline,
             listed_pipeline,
             pairs_layout,
@@ -594,7 +715,7 @@ impl PreviewRenderer {
             size_dispatch_pipeline,
             present_pipeline,
             frame_uniforms,
-            shadow_bind_group,
+            raster_bind_group,
             present_options,
             shadow_view,
             shadow_sampler,
@@ -606,12 +727,21 @@ impl PreviewRenderer {
             basis: None,
             reconstruction_stale: false,
             reconstruction_complete: false,
-            marks_key: None,
+            listed: false,
+            geometry_key: None,
+            shaded: None,
+            values_generation: 0,
             table: None,
             sparse,
             sparse_words: vec![0; PAIRS * SPARSE_WORDS],
+            environment,
+            environment_samples,
+            environment_generation: 0,
+            environment_buffer,
+            uploaded_environment: None,
             target: None,
             last_error: None,
+            counts: PassCounts::default(),
         })
     }
 
@@ -856,7 +986,10 @@ impl PreviewRenderer {
         });
         self.reconstruction_stale = true;
         self.reconstruction_complete = false;
-        self.marks_key = None;
+        // The marks and the list live in the new basis's buffers: set them up again.
+        self.listed = false;
+        self.geometry_key = None;
+        self.values_generation += 1;
         Ok(())
     }
 
@@ -890,6 +1023,7 @@ impl PreviewRenderer {
         self.queue
             .write_buffer(&basis.coefficients, 0, bytemuck::cast_slice(&packed));
         self.reconstruction_stale = true;
+        self.values_generation += 1;
         Ok(())
     }
 
@@ -946,6 +1080,7 @@ impl PreviewRenderer {
                 bytemuck::cast_slice(words),
             );
         }
+        self.values_generation += 1;
         Ok(())
     }
 
@@ -959,6 +1094,7 @@ impl PreviewRenderer {
             });
         encoder.clear_buffer(&self.sparse, 0, None);
         self.queue.submit([encoder.finish()]);
+        self.values_generation += 1;
     }
 
     /// Uploads a whole table for [`PreviewMode::Table`] (an imported table, or a test's).
@@ -982,7 +1118,58 @@ impl PreviewRenderer {
         let buffer = self.table.as_ref().expect("allocated above");
         self.queue
             .write_buffer(buffer, 0, bytemuck::cast_slice(table.pairs()));
+        self.values_generation += 1;
         Ok(())
+    }
+
+    /// The environment the environment light samples (the bundled studio until another is
+    /// set): [`ENVIRONMENT_DIRECTIONS`] directions are drawn from it here, once.
+    pub fn set_environment(&mut self, environment: &Environment) {
+        self.environment_samples = environment.samples(ENVIRONMENT_DIRECTIONS);
+        self.environment = environment.clone();
+        self.environment_generation += 1;
+        self.uploaded_environment = None;
+    }
+
+    /// The environment the environment light samples.
+    pub fn environment(&self) -> &Environment {
+        &self.environment
+    }
+
+    /// Uploads the environment's directions turned by the frame's rotation and scaled by its
+    /// intensity, unless they already are; how many the frame uses (0 without the light).
+    fn upload_environment(&mut self, light: Option<&EnvironmentLight>) -> u32 {
+        let Some(light) = light else {
+            return 0;
+        };
+        let key = (
+            self.environment_generation,
+            light.rotation_deg.to_bits(),
+            light.intensity.to_bits(),
+        );
+        if self.uploaded_environment != Some(key) {
+            let (sin, cos) = light.rotation_deg.to_radians().sin_cos();
+            let packed: Vec<[f32; 4]> = self
+                .environment_samples
+                .iter()
+                .flat_map(|s| {
+                    // About y, toward +x from +z (SCENE.md's azimuth).
+                    let d = s.direction;
+                    let turned = [d.x * cos + d.z * sin, d.y, d.z * cos - d.x * sin];
+                    let w = s.weight.map(|c| c * light.intensity);
+                    [
+                        [turned[0] as f32, turned[1] as f32, turned[2] as f32, 0.0],
+                        [w[0] as f32, w[1] as f32, w[2] as f32, 0.0],
+                    ]
+                })
+                .collect();
+            if !packed.is_empty() {
+                self.queue
+                    .write_buffer(&self.environment_buffer, 0, bytemuck::cast_slice(&packed));
+            }
+            self.uploaded_environment = Some(key);
+        }
+        self.environment_samples.len() as u32
     }
 
     /// The error of the last [`PreviewCallback`](super::PreviewCallback) prepare, if it failed
@@ -996,8 +1183,11 @@ impl PreviewRenderer {
     }
 
     /// Renders `frame` at `size` (width, height in pixels) into the renderer's own linear
-    /// texture, re-evaluating the reconstruction first if its coefficients changed and
-    /// re-rendering the shadow map if the light or object did. Submits its own commands.
+    /// texture. Only what changed is redone: the geometry raster, shadow map and per-pixel
+    /// set-up when the camera, lights, object, environment or size did; the reconstruction of
+    /// the pairs the view reads when the coefficients did; then one gather pass. When nothing
+    /// changed since the last call, nothing is drawn: the texture already shows the frame.
+    /// Submits its own commands.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -1027,51 +1217,138 @@ impl PreviewRenderer {
             _ => {}
         }
         if self.target.as_ref().is_none_or(|t| t.size != size) {
+            self.target = None;
             self.target = Some(self.create_target(device, size)?);
+            self.geometry_key = None;
         }
+        let key = GeometryKey::new(
+            frame,
+            size,
+            self.object_generation,
+            self.environment_generation,
+        );
+        let geometry_changed = self.geometry_key.as_ref() != Some(&key);
+        let shade_key = ShadeKey {
+            frame: frame.clone(),
+            size,
+            values_generation: self.values_generation,
+        };
+        if !geometry_changed && self.shaded.as_ref() == Some(&shade_key) {
+            return Ok(());
+        }
+        // Marks are stale from here until the set-up below is submitted.
+        self.shaded = None;
+        let reconstruction = frame.mode == PreviewMode::Reconstruction;
+        let environment = if frame.mode == PreviewMode::SparseOnly {
+            0
+        } else {
+            self.upload_environment(frame.environment.as_ref())
+        };
         let shadows = frame.shadows && self.mesh.is_some();
-        let uniforms = FrameUniforms::new(frame, width, height, shadows);
+        let uniforms = FrameUniforms::new(frame, width, height, shadows, environment);
         queue.write_buffer(&self.frame_uniforms, 0, bytemuck::bytes_of(&uniforms));
 
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("preview frame"),
-        });
-        let mut evaluation = Evaluation::None;
-        if frame.mode == PreviewMode::Reconstruction {
-            let key = MarksKey::new(frame, size, self.object_generation);
-            evaluation = self.plan_evaluation(&key);
-            self.encode_reconstruction(&mut encoder, evaluation);
-            if evaluation == Evaluation::All {
-                // The scene pass below marks afresh what this geometry reads.
-                let basis = self.basis.as_ref().expect("checked above");
-                encoder.clear_buffer(&basis.marked, 0, None);
-                self.marks_key = Some(key);
-            }
-        }
         let marks = self.basis.as_ref().map_or(&self.empty_marks, |b| &b.marked);
         let values = match (frame.mode, &self.basis, &self.table) {
             (PreviewMode::Reconstruction, Some(basis), _) => &basis.output,
             (PreviewMode::Table, _, Some(table)) => table,
             _ => &self.empty_values,
         };
-        let scene_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("preview scene"),
-            layout: &self.scene_layout,
+        let target = self.target.as_ref().expect("created above");
+        let texture = |binding, view| wgpu::BindGroupEntry {
+            binding,
+            resource: wgpu::BindingResource::TextureView(view),
+        };
+        let shade_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("preview shading"),
+            layout: &self.shade_layout,
             entries: &[
                 buffer_entry(0, &self.frame_uniforms),
                 buffer_entry(1, values),
                 buffer_entry(2, &self.sparse),
+                texture(3, &target.position_view),
+                texture(4, &target.normal_view),
+                texture(5, &self.shadow_view),
                 wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(&self.shadow_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
+                    binding: 6,
                     resource: wgpu::BindingResource::Sampler(&self.shadow_sampler),
                 },
-                buffer_entry(5, marks),
+                buffer_entry(7, &target.records),
+                buffer_entry(8, marks),
+                buffer_entry(9, &self.environment_buffer),
+                texture(10, &target.radiance_view),
             ],
         });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("preview frame"),
+        });
+        let tiles = (width.div_ceil(PIXEL_TILE), height.div_ceil(PIXEL_TILE));
+        if geometry_changed {
+            self.encode_geometry(&mut encoder, frame, shadows);
+            if let (true, Some(basis)) = (reconstruction, &self.basis) {
+                // The set-up below marks afresh what this geometry reads.
+                encoder.clear_buffer(&basis.marked, 0, None);
+            }
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("preview set-up"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &shade_bind_group, &[]);
+            pass.set_pipeline(&self.setup_pipeline);
+            pass.dispatch_workgroups(tiles.0, tiles.1, 1);
+            drop(pass);
+            if reconstruction {
+                self.encode_listing(&mut encoder);
+            }
+            self.listed = reconstruction;
+            self.geometry_key = Some(key);
+            self.counts.geometry += 1;
+        }
+        // New coefficients, or a view onto pairs that may hold older values.
+        if reconstruction
+            && (self.reconstruction_stale || (geometry_changed && !self.reconstruction_complete))
+        {
+            self.encode_reconstruction(&mut encoder, Evaluation::Listed);
+            self.counts.evaluations += 1;
+        }
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("preview gather"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &shade_bind_group, &[]);
+            if frame.draft {
+                pass.set_pipeline(&self.draft_pipeline);
+                let blocks = (width.div_ceil(2), height.div_ceil(2));
+                pass.dispatch_workgroups(
+                    blocks.0.div_ceil(PIXEL_TILE),
+                    blocks.1.div_ceil(PIXEL_TILE),
+                    1,
+                );
+            } else {
+                pass.set_pipeline(&self.gather_pipeline);
+                pass.dispatch_workgroups(tiles.0, tiles.1, 1);
+            }
+        }
+        queue.submit([encoder.finish()]);
+        self.shaded = Some(shade_key);
+        self.counts.gathers += 1;
+        Ok(())
+    }
+
+    /// The passes `prepare` has run so far.
+    pub fn pass_counts(&self) -> PassCounts {
+        self.counts
+    }
+
+    /// Records the shadow map (when the light or object changed) and the geometry raster:
+    /// per pixel, the surface point seen and its normal.
+    fn encode_geometry(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &PreviewFrame,
+        shadows: bool,
+    ) {
         let light = frame.light.direction().as_vec3().to_array();
         let key = (light, self.object_generation);
         if shadows && self.shadow_key != Some(key) {
@@ -1092,64 +1369,58 @@ impl PreviewRenderer {
                 multiview_mask: None,
             });
             pass.set_pipeline(&self.shadow_pipeline);
-            pass.set_bind_group(0, &self.shadow_bind_group, &[]);
+            pass.set_bind_group(0, &self.raster_bind_group, &[]);
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));
             pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..mesh.index_count, 0, 0..1);
             drop(pass);
             self.shadow_key = Some(key);
         }
-        {
-            let target = self.target.as_ref().expect("created above");
-            let [r, g, b] = frame.background.map(f64::from);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("preview scene"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &target.colour_view,
-                    resolve_target: None,
-                    depth_slice: None,
-                    ops: wgpu::Operations {
-                        // Alpha 0 marks the background (the object writes 1), for `pick`.
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 0.0 }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &target.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
+        let target = self.target.as_ref().expect("created before");
+        let attachment = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                resolve_target: None,
+                depth_slice: None,
+                ops: wgpu::Operations {
+                    // w = 0: no surface.
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("preview geometry"),
+            color_attachments: &[
+                attachment(&target.position_view),
+                attachment(&target.normal_view),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &target.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
                 }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, &scene_bind_group, &[]);
-            match &self.mesh {
-                None => {
-                    pass.set_pipeline(&self.sphere_pipeline);
-                    pass.draw(0..3, 0..1);
-                }
-                Some(mesh) => {
-                    pass.set_pipeline(&self.mesh_pipeline);
-                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-                }
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.raster_bind_group, &[]);
+        match &self.mesh {
+            None => {
+                pass.set_pipeline(&self.sphere_pipeline);
+                pass.draw(0..3, 0..1);
+            }
+            Some(mesh) => {
+                pass.set_pipeline(&self.mesh_pipeline);
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
             }
         }
-        if evaluation == Evaluation::All {
-            self.encode_listing(&mut encoder);
-        }
-        queue.submit([encoder.finish()]);
-        Ok(())
     }
-
-    /// Draws the last prepared frame into `render_pass` (whose layout is this renderer's
-    /// [`TargetLayout`]), filling the pass's viewport: clamped to [0, 1], sRGB-encoded unless
-    /// the target format is sRGB. Draws nothing before the first successful `prepare`.
     pub fn paint(&self, render_pass: &mut wgpu::RenderPass<'_>) {
         if let Some(target) = &self.target {
             render_pass.set_pipeline(&self.present_pipeline);
@@ -1227,7 +1498,7 @@ impl PreviewRenderer {
                     y: origin[1],
                     z: 0,
                 },
-                ..target.colour.as_image_copy()
+                ..target.radiance.as_image_copy()
             },
             wgpu::TexelCopyBufferInfo {
                 buffer: &readback,
@@ -1290,7 +1561,7 @@ impl PreviewRenderer {
     /// How many pairs the last listing found the view reading (those new coefficients are
     /// evaluated for while the geometry stays); `None` before a reconstruction frame.
     pub fn view_pair_count(&self) -> Result<Option<u32>, PreviewError> {
-        let (Some(basis), Some(_)) = (&self.basis, &self.marks_key) else {
+        let (Some(basis), true) = (&self.basis, self.listed) else {
             return Ok(None);
         };
         let readback = allocate(&self.device, || {
@@ -1312,21 +1583,6 @@ impl PreviewRenderer {
         Ok(Some(bytemuck::cast_slice::<u8, u32>(&bytes)[0]))
     }
 
-    /// What a frame of `key`'s geometry must re-evaluate. New coefficients are evaluated for
-    /// the listed pairs only when the list was made for this geometry; otherwise for all,
-    /// which also makes the list. Unchanged coefficients need nothing unless the view turned
-    /// to pairs that only hold older values.
-    fn plan_evaluation(&self, key: &MarksKey) -> Evaluation {
-        let listed = self.marks_key.as_ref() == Some(key);
-        match (self.reconstruction_stale, listed) {
-            (true, true) => Evaluation::Listed,
-            (true, false) => Evaluation::All,
-            (false, true) => Evaluation::None,
-            (false, false) if self.reconstruction_complete => Evaluation::None,
-            (false, false) => Evaluation::All,
-        }
-    }
-
     /// Records the reconstruction pass over all pairs or over the listed ones.
     fn encode_reconstruction(
         &mut self,
@@ -1336,9 +1592,6 @@ impl PreviewRenderer {
         let Some(basis) = &self.basis else {
             return;
         };
-        if evaluation == Evaluation::None {
-            return;
-        }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("preview reconstruction"),
             timestamp_writes: None,
@@ -1374,6 +1627,12 @@ impl PreviewRenderer {
     }
 
     fn create_target(&self, device: &wgpu::Device, size: [u32; 2]) -> Result<Target, PreviewError> {
+        let record_bytes = RECORD_WORDS * 4 * size[0] as u64 * size[1] as u64;
+        check_fits(
+            &self.limits,
+            &format!("a {} × {} preview's pixel records", size[0], size[1]),
+            record_bytes,
+        )?;
         let extent = wgpu::Extent3d {
             width: size[0],
             height: size[1],
@@ -1391,39 +1650,52 @@ impl PreviewRenderer {
                 view_formats: &[],
             })
         };
-        let (colour, depth) = allocate(device, || {
+        let geometry_usage =
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let (position, normal, depth, radiance, records) = allocate(device, || {
             (
-                texture(
-                    "preview radiance",
-                    RADIANCE_FORMAT,
-                    wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::TEXTURE_BINDING
-                        | wgpu::TextureUsages::COPY_SRC,
-                ),
+                texture("preview positions", RADIANCE_FORMAT, geometry_usage),
+                texture("preview normals", RADIANCE_FORMAT, geometry_usage),
                 texture(
                     "preview depth",
                     DEPTH_FORMAT,
                     wgpu::TextureUsages::RENDER_ATTACHMENT,
                 ),
+                texture(
+                    "preview radiance",
+                    RADIANCE_FORMAT,
+                    wgpu::TextureUsages::STORAGE_BINDING
+                        | wgpu::TextureUsages::TEXTURE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC,
+                ),
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("preview pixel records"),
+                    size: record_bytes,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                }),
             )
         })?;
-        let colour_view = colour.create_view(&Default::default());
+        let radiance_view = radiance.create_view(&Default::default());
         let present_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("preview present"),
             layout: &self.present_layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&colour_view),
+                    resource: wgpu::BindingResource::TextureView(&radiance_view),
                 },
                 buffer_entry(1, &self.present_options),
             ],
         });
         Ok(Target {
             size,
+            position_view: position.create_view(&Default::default()),
+            normal_view: normal.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
-            colour,
-            colour_view,
+            records,
+            radiance,
+            radiance_view,
             present_bind_group,
         })
     }

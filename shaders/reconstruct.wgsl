@@ -1,8 +1,9 @@
 // Evaluates the reconstruction for every unordered direction pair (`reconstruct`), or for the
 // pairs the current view reads (`reconstruct_listed`, over shaders/view_pairs.wgsl's list),
-// exactly as solver::Reconstruction::eval_pair does: m = clamp(mean + Σ_k u_k x_k, lower − margin,
-// upper + margin), ρ = max((e^m (reference + ε) − ε) / c, 0). It runs once per change of
-// coefficients; the scene pass then reads the result like any table.
+// exactly as solver::Reconstruction::eval_pair does: m = clamp(mean + Σ_k u_k x_k(θ_d),
+// lower − margin, upper + margin), ρ = max((e^m (reference + ε) − ε) / c, 0), with x(θ_d) the
+// blend of the two coefficient sets around the pair's θ_d (solver::bands). It runs once per
+// change of coefficients; the scene pass then reads the result like any table.
 
 const MAP_EPSILON: f32 = 0.001;
 const PHI_BINS: u32 = 36u;
@@ -14,12 +15,13 @@ struct Params {
     pairs: u32,
     // Invocations along x of the dispatch (workgroups · 256): the stride of id.y.
     stride: u32,
-    unused: u32,
+    // Coefficient sets (solver::BANDS).
+    bands: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-// Per component k (padded to an even count): the R, G, B coefficients divided by the scale the
-// components were stored with.
+// Per coefficient set, per component k (padded to an even count): the R, G, B coefficients
+// divided by the scale the components were stored with.
 @group(0) @binding(1) var<storage, read> coefficients: array<vec4<f32>>;
 // Per pair, ceil(K / 2) words of pack2x16float(u_2j · scale, u_2j+1 · scale).
 @group(0) @binding(2) var<storage, read> rows: array<u32>;
@@ -32,6 +34,8 @@ struct Params {
 // The pairs the view reads, and (count, workgroups x, y, z) of their indirect dispatch.
 @group(0) @binding(6) var<storage, read> listed: array<u32>;
 @group(0) @binding(7) var<storage, read> listed_counts: array<u32, 4>;
+// Per pair: lower band + blend fraction toward the next (solver::bands::BandWeights).
+@group(0) @binding(8) var<storage, read> band_position: array<f32>;
 
 @compute @workgroup_size(256)
 fn reconstruct(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -61,12 +65,15 @@ fn evaluate(pair: u32) {
     let lo = pair - hi * (hi + 1u) / 2u;
     let inv_c = inv_cos_weight[(lo / PHI_BINS) * THETA_BINS + hi / PHI_BINS];
 
-    var sum = vec3<f32>(0.0);
-    let base = pair * params.row_words;
-    for (var j = 0u; j < params.row_words; j++) {
-        let u = unpack2x16float(rows[base + j]);
-        sum += u.x * coefficients[2u * j].xyz;
-        sum += u.y * coefficients[2u * j + 1u].xyz;
+    let position = band_position[pair];
+    let lower = min(u32(floor(position)), params.bands - 2u);
+    let frac = position - f32(lower);
+    let set = 2u * params.row_words;
+    let first = lower * set;
+    var sum = dot_set(pair, first);
+    if frac != 0.0 {
+        let upper = dot_set(pair, first + set);
+        sum = sum + frac * (upper - sum);
     }
     let range = pair_range[pair];
     let m = clamp(range.y + sum, vec3<f32>(range.z), vec3<f32>(range.w));
@@ -74,4 +81,16 @@ fn evaluate(pair: u32) {
     rho[3u * pair] = value.x;
     rho[3u * pair + 1u] = value.y;
     rho[3u * pair + 2u] = value.z;
+}
+
+// Σ_k u_k x_k for pair `pair` with the coefficient set starting at `first`.
+fn dot_set(pair: u32, first: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let base = pair * params.row_words;
+    for (var j = 0u; j < params.row_words; j++) {
+        let u = unpack2x16float(rows[base + j]);
+        sum += u.x * coefficients[first + 2u * j].xyz;
+        sum += u.y * coefficients[first + 2u * j + 1u].xyz;
+    }
+    return sum;
 }

@@ -645,7 +645,8 @@ fn wrap_degrees(deg: f64) -> f64 {
 fn current_reconstruction(app: &BurnishApp) -> Option<Reconstruction> {
     let snapshot = &app.snapshot;
     let basis = snapshot.basis.clone()?;
-    (snapshot.coefficients.len() == basis.components())
+    let (n, k) = (snapshot.coefficients.len(), basis.components());
+    (n == k || n == crate::solver::BANDS * k)
         .then(|| Reconstruction::new(basis, &snapshot.coefficients))
 }
 

@@ -6,6 +6,7 @@ use super::frame::{EnvironmentLight, FrameUniforms, PreviewFrame, PreviewMode, S
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::image_io::RgbImage;
 use crate::scene::Object;
+use crate::solver::{BANDS, pair_bands};
 use crate::table::{PAIRS, SymTable, THETA_BINS};
 use half::f16;
 use rayon::prelude::*;
@@ -409,6 +410,7 @@ impl PreviewRenderer {
                 storage_entry(5, compute, false),
                 storage_entry(6, compute, true),
                 storage_entry(7, compute, true),
+                storage_entry(8, compute, true),
             ],
         });
         let pairs_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -836,8 +838,9 @@ impl PreviewRenderer {
                 mapped_at_creation: false,
             })
         };
-        // One vec4 per component, padded to an even count for the shader's pairs.
-        let coefficient_bytes = (2 * row_words * 16) as u64;
+        // One vec4 per component, padded to an even count for the shader's pairs, for each
+        // of the localised prior's coefficient sets.
+        let coefficient_bytes = (BANDS * 2 * row_words * 16) as u64;
         let (rows_buffer, ranges, coefficients, output) = allocate(device, || {
             (
                 buffer("preview basis components", rows_bytes, usage),
@@ -920,6 +923,17 @@ impl PreviewRenderer {
             contents: bytemuck::cast_slice(&inverse_weights),
             usage: wgpu::BufferUsages::STORAGE,
         });
+        // The engine's band weights, as lower + frac in one float per pair, so the GPU blends
+        // the coefficient sets exactly as solver::Reconstruction does.
+        let band_positions: Vec<f32> = pair_bands()
+            .iter()
+            .map(|w| w.lower as f32 + w.frac)
+            .collect();
+        let band_positions = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("preview pair bands"),
+            contents: bytemuck::cast_slice(&band_positions),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
         let groups = (PAIRS as u32).div_ceil(WORKGROUP_SIZE);
         let max_groups = self.limits.max_compute_workgroups_per_dimension.max(1);
         let workgroups = if groups <= max_groups {
@@ -933,7 +947,7 @@ impl PreviewRenderer {
                 row_words as u32,
                 PAIRS as u32,
                 workgroups.0 * WORKGROUP_SIZE,
-                0,
+                BANDS as u32,
             ]),
             usage: wgpu::BufferUsages::UNIFORM,
         });
@@ -949,6 +963,7 @@ impl PreviewRenderer {
                 buffer_entry(5, &output),
                 buffer_entry(6, &listed),
                 buffer_entry(7, &listed_counts),
+                buffer_entry(8, &band_positions),
             ],
         });
         let pairs_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -993,18 +1008,21 @@ impl PreviewRenderer {
         Ok(())
     }
 
-    /// The reconstruction's coefficients: K rows of (R, G, B), as the solver gives them. Only
-    /// these K × 3 numbers are uploaded; ρ is re-evaluated on the GPU at the next frame.
+    /// The reconstruction's coefficients as the solver gives them: K rows of (R, G, B) (one
+    /// set, used at every θ_d) or [`BANDS`] × K (the localised prior's sets). Only these
+    /// numbers are uploaded; ρ is re-evaluated on the GPU at the next frame.
     pub fn set_coefficients(&mut self, x: &[[f64; 3]]) -> Result<(), PreviewError> {
         let basis = self
             .basis
             .as_ref()
             .ok_or(PreviewError::Missing("set a basis before its coefficients"))?;
-        if x.len() != basis.components {
+        let k = basis.components;
+        if x.len() != k && x.len() != BANDS * k {
             return Err(PreviewError::Invalid(format!(
-                "{} coefficient rows for a basis of {} components",
+                "{} coefficient rows for a basis of {} components ({k} or {} expected)",
                 x.len(),
-                basis.components
+                k,
+                BANDS * k
             )));
         }
         if x.iter().flatten().any(|v| !v.is_finite()) {
@@ -1012,12 +1030,19 @@ impl PreviewRenderer {
                 "the coefficients must be finite".into(),
             ));
         }
-        // x / scale is exact: scale is a power of two.
-        let packed: Vec<[f32; 4]> = x
-            .iter()
-            .map(|row| {
-                let c = row.map(|v| v as f32 / basis.scale);
-                [c[0], c[1], c[2], 0.0]
+        // x / scale is exact: scale is a power of two. Each set is padded to an even count of
+        // components; one set is repeated for every band.
+        let padded = k.div_ceil(2) * 2;
+        let packed: Vec<[f32; 4]> = (0..BANDS)
+            .flat_map(|band| {
+                let set = if x.len() == k { 0 } else { band };
+                (0..padded).map(move |i| match x.get(set * k + i).filter(|_| i < k) {
+                    Some(row) => {
+                        let c = row.map(|v| v as f32 / basis.scale);
+                        [c[0], c[1], c[2], 0.0]
+                    }
+                    None => [0.0; 4],
+                })
             })
             .collect();
         self.queue

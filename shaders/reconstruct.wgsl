@@ -68,11 +68,11 @@ fn evaluate(pair: u32) {
     let position = band_position[pair];
     let lower = min(u32(floor(position)), params.bands - 2u);
     let frac = position - f32(lower);
-    let set = 2u * params.row_words;
-    let first = lower * set;
+    let set_stride = 2u * params.row_words;
+    let first = lower * set_stride;
     var sum = dot_set(pair, first);
     if frac != 0.0 {
-        let upper = dot_set(pair, first + set);
+        let upper = dot_set(pair, first + set_stride);
         sum = sum + frac * (upper - sum);
     }
     let range = pair_range[pair];

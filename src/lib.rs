@@ -19,6 +19,7 @@ pub mod image_io;
 pub mod inspect;
 pub mod materials;
 pub mod metrics;
+pub mod next_view;
 pub mod paint;
 #[cfg(feature = "app")]
 pub mod preview;

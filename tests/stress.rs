@@ -459,7 +459,8 @@ impl Worst {
 
 /// What every solution must satisfy.
 fn check_solution(solution: &Solution, observed: usize) -> TestCaseResult {
-    prop_assert_eq!(solution.coefficients.len(), K);
+    // One coefficient set per band of the localised prior.
+    prop_assert_eq!(solution.coefficients.len(), burnish::solver::BANDS * K);
     prop_assert!(
         solution
             .coefficients

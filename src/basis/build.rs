@@ -102,9 +102,11 @@ pub type MaterialSource<'a> = &'a (dyn Fn(usize) -> Box<dyn Brdf> + Sync);
 
 /// ln(ρc + ε) of every pair of one material (c as in the map, ε = [`MAP_EPSILON`]).
 fn log_table(brdf: &dyn Brdf) -> Vec<[f32; 3]> {
+    // f32 logarithms: the values are stored and multiplied in f32 precision anyway, and an
+    // anisotropic material takes four million of them per pass.
     tabulate_mapped(brdf, |t_l, t_v, rho| {
-        let c = cos_weight_polar(t_l, t_v);
-        rho.map(|r| ((r.max(0.0) as f64 * c + MAP_EPSILON).ln()) as f32)
+        let c = cos_weight_polar(t_l, t_v) as f32;
+        rho.map(|r| (r.max(0.0) * c + MAP_EPSILON as f32).ln())
     })
 }
 

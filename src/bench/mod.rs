@@ -1,7 +1,8 @@
 //! `burnish bench`: run time against error, and the live-loop timings.
 //!
-//! Held-out materials are rendered as a perfect painter would paint them (each pixel at its
-//! exact directions, [`render_brdf`]), turned into samples exactly as a painting is, and
+//! Held-out materials are tabulated and rendered from their table as `burnish render` does
+//! ([`render_table`]: a perfect painter of the table the scores compare against), turned into
+//! samples exactly as a painting is (LDR paint as clipped, censored 8-bit values), and
 //! reconstructed under a sweep of configurations around the paper's (K = 20, default prior,
 //! mean policy, one view; here at the scene default 512² with HDR paint). Each axis of the
 //! sweep (K, regularisation, views, guide resolution, LDR/HDR paint, sample policy) is varied
@@ -10,6 +11,7 @@
 //! analytic Lambert + anisotropic GGX fit of the same samples.
 
 pub mod analytic_fit;
+pub mod error_maps;
 pub mod held_out;
 pub mod live;
 pub mod oracle;
@@ -23,10 +25,10 @@ use crate::error::Result;
 use crate::image_io::RgbImage;
 use crate::materials::tabulate;
 use crate::scene::{
-    CameraSettings, GBuffer, LightSettings, Object, SampleCounts, SampleSet, Scene, render_brdf,
-    samples_from_image, srgb_decode, srgb_encode,
+    CameraSettings, GBuffer, LightSettings, Object, PaintRange, SampleCounts, SampleSet, Scene,
+    render_table, samples_from_image_in, srgb_decode, srgb_encode,
 };
-use crate::solver::{Policy, Reconstruction, Regularization, Solver, SparseTable};
+use crate::solver::{Policy, PriorModel, Reconstruction, Regularization, Solver, SparseTable};
 use crate::table::SymTable;
 use analytic_fit::{FitOptions, fit_lambert_ggx};
 use held_out::HeldOut;
@@ -48,6 +50,14 @@ pub enum Paint {
 }
 
 impl Paint {
+    /// What the painting's values can express.
+    pub fn range(self) -> PaintRange {
+        match self {
+            Paint::Hdr => PaintRange::Hdr,
+            Paint::Ldr => PaintRange::Ldr,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Paint::Hdr => "hdr",
@@ -65,7 +75,9 @@ pub struct ViewSetup {
     pub camera_pitch_deg: f64,
 }
 
-/// The views, in the order they are added: 1 view uses the first, 2 the first two, …
+/// The views, in the order they are added: 1 view uses the first, 2 the first two, …. The
+/// first three are lights an artist moves around the default orthographic sphere; the fourth
+/// also turns the camera.
 pub const VIEWS: [ViewSetup; 4] = [
     ViewSetup {
         light_elevation_deg: 45.0,
@@ -74,16 +86,16 @@ pub const VIEWS: [ViewSetup; 4] = [
         camera_pitch_deg: 0.0,
     },
     ViewSetup {
-        light_elevation_deg: 20.0,
-        light_azimuth_deg: -60.0,
+        light_elevation_deg: 60.0,
+        light_azimuth_deg: 200.0,
         camera_yaw_deg: 0.0,
         camera_pitch_deg: 0.0,
     },
     ViewSetup {
-        light_elevation_deg: 70.0,
-        light_azimuth_deg: 150.0,
-        camera_yaw_deg: 30.0,
-        camera_pitch_deg: 20.0,
+        light_elevation_deg: 20.0,
+        light_azimuth_deg: 120.0,
+        camera_yaw_deg: 0.0,
+        camera_pitch_deg: 0.0,
     },
     ViewSetup {
         light_elevation_deg: 10.0,
@@ -117,6 +129,7 @@ impl ViewSetup {
 pub struct Config {
     pub components: usize,
     pub regularization: Regularization,
+    pub model: PriorModel,
     pub views: usize,
     pub resolution: u32,
     pub paint: Paint,
@@ -130,6 +143,7 @@ impl Config {
         Self {
             components: 20,
             regularization: Regularization::Auto,
+            model: PriorModel::CALIBRATED,
             views: 1,
             resolution: 512,
             paint: Paint::Hdr,
@@ -137,11 +151,13 @@ impl Config {
         }
     }
 
-    /// A short stable label, e.g. `K20 auto 1v 512 hdr mean`.
+    /// A short stable label, e.g. `K20 auto 1v 512 hdr mean` (`global` after K for the
+    /// global prior of Nielsen et al., any other prior model spelled out).
     pub fn label(&self) -> String {
         format!(
-            "K{} {} {}v {} {} {}",
+            "K{}{} {} {}v {} {} {}",
             self.components,
+            model_name(self.model),
             regularization_name(self.regularization),
             self.views,
             self.resolution,
@@ -152,6 +168,20 @@ impl Config {
 
     fn samples_key(&self) -> SamplesKey {
         (self.views, self.resolution, self.paint)
+    }
+}
+
+/// "" for the calibrated prior, " global" for Nielsen et al.'s, else its constants.
+pub fn model_name(m: PriorModel) -> String {
+    if m == PriorModel::CALIBRATED {
+        String::new()
+    } else if m == PriorModel::GLOBAL {
+        " global".into()
+    } else {
+        format!(
+            " bands{}/ρ{}/β{}/κ{}",
+            m.bands, m.band_correlation, m.brightness_exponent, m.brightness_floor
+        )
     }
 }
 
@@ -242,6 +272,8 @@ pub struct BenchOptions {
     pub paper: Config,
     pub components: Vec<usize>,
     pub regularizations: Vec<Regularization>,
+    /// Prior models besides the calibrated one.
+    pub models: Vec<PriorModel>,
     pub view_counts: Vec<usize>,
     pub resolutions: Vec<u32>,
     pub paints: Vec<Paint>,
@@ -250,6 +282,9 @@ pub struct BenchOptions {
     pub analytic_views: Vec<usize>,
     pub fit: FitOptions,
     pub live: live::LiveOptions,
+    /// Where to write an error map per material for the paper's configuration and every view
+    /// count (none when `None`).
+    pub error_maps: Option<std::path::PathBuf>,
 }
 
 impl BenchOptions {
@@ -272,26 +307,30 @@ impl BenchOptions {
                 Regularization::Prior { alpha: 30.0 },
                 Regularization::Ridge { lambda: 0.01 },
             ],
-            view_counts: vec![1, 2, 4],
+            models: vec![PriorModel::GLOBAL],
+            view_counts: vec![1, 2, 3, 4],
             resolutions: vec![256, 512, 1024],
             paints: vec![Paint::Hdr, Paint::Ldr],
             policies: vec![Policy::Mean, Policy::Min, Policy::Max],
             analytic_views: vec![1, 4],
             fit: FitOptions::default(),
             live: live::LiveOptions::full(),
+            error_maps: None,
         }
     }
 
-    /// Under five minutes on two cores with a cold cache: the default basis (K = 20) only,
-    /// eight held-out materials, the paper's configuration, two views and LDR paint.
+    /// The short run: the default basis (K = 20) only, ten held-out materials (four from the
+    /// database's held-out seed, six hand-built), the paper's configuration, three views, LDR
+    /// paint and the global prior for comparison.
     pub fn quick(cache: BasisCache) -> Self {
         Self {
             mode: "quick",
-            database_materials: 6,
-            hand_built: 2,
+            database_materials: 4,
+            hand_built: 6,
             components: vec![20],
             regularizations: vec![Regularization::Auto],
-            view_counts: vec![1, 2],
+            models: vec![PriorModel::GLOBAL],
+            view_counts: vec![1, 3],
             resolutions: vec![512],
             paints: vec![Paint::Hdr, Paint::Ldr],
             policies: vec![Policy::Mean],
@@ -321,6 +360,20 @@ impl BenchOptions {
                     ..p
                 },
             );
+        }
+        for &model in &self.models {
+            add("prior", Config { model, ..p });
+            // The global prior with three views too: what the localised one is measured against.
+            if self.view_counts.contains(&3) {
+                add(
+                    "prior",
+                    Config {
+                        model,
+                        views: 3,
+                        ..p
+                    },
+                );
+            }
         }
         for &views in &self.view_counts {
             add("views", Config { views, ..p });
@@ -502,19 +555,38 @@ pub fn run_bench(options: &BenchOptions, log: &dyn Fn(&str)) -> Result<BenchRepo
                 let gbuffer = geometry.get(view, resolution);
                 let render = renders
                     .entry((view, resolution))
-                    .or_insert_with(|| render_brdf(&gbuffer, &*m.brdf));
+                    .or_insert_with(|| render_table(&gbuffer, &truth));
                 let painting = match paint {
                     Paint::Hdr => render.clone(),
                     Paint::Ldr => ldr_round_trip(render),
                 };
                 let start = Instant::now();
-                sets.push(samples_from_image(&gbuffer, &painting));
+                sets.push(samples_from_image_in(&gbuffer, &painting, paint.range()));
                 samples_ms += ms_since(start);
             }
             let painted = PaintedViews { sets, samples_ms };
             for &(axis, config) in configs.iter().filter(|(_, c)| c.samples_key() == key) {
                 let basis = bases.get(config.components, log)?;
-                rows.push(sparse_row(m, &truth, &painted, basis, axis, config));
+                let map = options
+                    .error_maps
+                    .as_ref()
+                    .filter(|_| matches!(axis, "paper" | "views" | "paint" | "prior"))
+                    .map(|dir| {
+                        dir.join(format!(
+                            "{}-{}.png",
+                            m.name,
+                            config.label().replace(['/', ' '], "_")
+                        ))
+                    });
+                rows.push(sparse_row(
+                    m,
+                    &truth,
+                    &painted,
+                    basis,
+                    axis,
+                    config,
+                    map.as_deref(),
+                )?);
             }
             if resolution == p.resolution
                 && paint == p.paint
@@ -560,16 +632,24 @@ fn sparse_row(
     basis: Arc<Basis>,
     axis: &'static str,
     config: Config,
-) -> Row {
+    error_map: Option<&std::path::Path>,
+) -> Result<Row> {
     let start = Instant::now();
     let (table, changes) = painted.sparse_table(config.policy);
-    let mut solver = Solver::new(basis.clone(), config.regularization);
+    let mut solver = Solver::with_model(basis.clone(), config.regularization, config.model);
     solver.apply_all(&changes);
     let solution = solver.solve();
     let estimate = Reconstruction::new(basis, &solution.coefficients).materialize();
     let time_ms = painted.samples_ms + ms_since(start);
     let e = evaluate(truth, &estimate);
-    Row {
+    if let Some(path) = error_map {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
+        }
+        let observed = table.observed().map(|(pair, _)| pair).collect();
+        error_maps::write_error_map(path, truth, &estimate, &observed)?;
+    }
+    Ok(Row {
         method: Method::Sparse(config),
         axis,
         material: m.name.clone(),
@@ -582,7 +662,7 @@ fn sparse_row(
         samples_used: table.sample_count(),
         observed_bins: table.observed_count(),
         counts: painted.counts(),
-    }
+    })
 }
 
 fn analytic_row(

@@ -216,6 +216,22 @@ impl BenchReport {
         self.find(&Method::Sparse(self.paper))
     }
 
+    /// The paper's configuration with `views` views.
+    pub fn paper_views(&self, views: usize) -> Option<&Aggregate> {
+        self.find(&Method::Sparse(super::Config {
+            views,
+            ..self.paper
+        }))
+    }
+
+    /// The paper's configuration with LDR (8-bit, clipped) paint.
+    pub fn paper_ldr(&self) -> Option<&Aggregate> {
+        self.find(&Method::Sparse(super::Config {
+            paint: super::Paint::Ldr,
+            ..self.paper
+        }))
+    }
+
     /// The oracle at the paper's K.
     pub fn oracle(&self) -> Option<&Aggregate> {
         self.find(&Method::Oracle {
@@ -319,6 +335,26 @@ impl BenchReport {
             (
                 "rebuild_normal_equations_ms",
                 self.paper_k().map_or(nan, |p| p.rebuild_ms),
+            ),
+            (
+                "rel_rmse_3view",
+                pick(self.paper_views(3), |a| a.mean_relative_rmse),
+            ),
+            (
+                "median_rel_rmse_3view",
+                pick(self.paper_views(3), |a| a.median_relative_rmse),
+            ),
+            (
+                "log_rmse_3view",
+                pick(self.paper_views(3), |a| a.mean_log_rmse),
+            ),
+            (
+                "rel_rmse_1view_ldr",
+                pick(self.paper_ldr(), |a| a.mean_relative_rmse),
+            ),
+            (
+                "median_rel_rmse_1view_ldr",
+                pick(self.paper_ldr(), |a| a.median_relative_rmse),
             ),
             ("lazy_preview_ms", self.live.lazy_ms),
             ("lazy_preview_entries", self.live.lazy_entries as f64),

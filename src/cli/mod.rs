@@ -7,6 +7,7 @@ pub mod bench_cmd;
 pub mod eval_cmd;
 mod reconstruct_cmd;
 mod scene_cmds;
+mod suggest_cmd;
 
 use crate::basis::BuildProgress;
 use clap::{Parser, Subcommand};
@@ -31,6 +32,8 @@ pub enum Command {
     Render(scene_cmds::RenderArgs),
     /// Rebuild a full BRDF table from paintings of one or more views.
     Reconstruct(reconstruct_cmd::ReconstructArgs),
+    /// Rank candidate views by how much painting them would teach: which light and camera next.
+    Suggest(suggest_cmd::SuggestArgs),
     /// Score an estimated table against the truth.
     Eval(eval_cmd::EvalArgs),
     /// Build (or load from the cache) the PCA basis of the material database.
@@ -49,6 +52,7 @@ pub fn run() -> ExitCode {
         Some(Command::Guide(args)) => scene_cmds::guide(&args),
         Some(Command::Render(args)) => scene_cmds::render(&args),
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
+        Some(Command::Suggest(args)) => suggest_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
         Some(Command::Basis(args)) => basis_cmd::run(&args),
         #[cfg(feature = "app")]

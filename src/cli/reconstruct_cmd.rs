@@ -1,13 +1,14 @@
 //! `burnish reconstruct`: paintings of one or more views → a full BRDF table.
 
 use super::scene_cmds::scene_gbuffer;
-use crate::basis::{BasisCache, BasisSpec, CacheOutcome};
+use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::materials::database::DatabaseSpec;
-use crate::scene::samples_from_file;
-use crate::solver::{Policy, Reconstruction, Regularization, Solver, SparseTable};
+use crate::scene::{Scene, samples_from_file};
+use crate::solver::{BinChange, Policy, Reconstruction, Regularization, Solver, SparseTable};
 use crate::table::{exr_file::write_table_exr, merl::MerlBrdf};
 use anyhow::bail;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Which basis to use; every option here keys the basis cache.
@@ -69,6 +70,10 @@ pub struct ReconstructArgs {
     /// Also write a MERL binary (isotropic export for other renderers).
     #[arg(long)]
     pub merl: Option<PathBuf>,
+    /// Also write the per-entry posterior standard deviation of ρ as an EXR table (TABLE.md
+    /// layout): small where the paintings observe the table, large where it is guessed.
+    #[arg(long)]
+    pub uncertainty: Option<PathBuf>,
     #[command(flatten)]
     pub basis: BasisOptions,
     /// Regularisation: auto (variance prior, α = 3), gcv, a number (the prior's α),
@@ -80,13 +85,21 @@ pub struct ReconstructArgs {
     pub policy: Policy,
 }
 
-pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
-    let total = Instant::now();
-    let mut table = SparseTable::new(args.policy);
+/// Paintings of views, binned: the sparse table, the bin changes that built it, the scenes.
+pub(crate) struct PaintedViews {
+    pub table: SparseTable,
+    pub changes: Vec<BinChange>,
+    pub scenes: Vec<Scene>,
+}
+
+/// Reads every `--view`, reporting what each gave; an error names the file and the problem.
+pub(crate) fn read_views(views: &[ViewArg], policy: Policy) -> anyhow::Result<PaintedViews> {
+    let mut table = SparseTable::new(policy);
     let mut changes = Vec::new();
-    for (view, arg) in args.views.iter().enumerate() {
+    let mut scenes = Vec::new();
+    for (view, arg) in views.iter().enumerate() {
         let start = Instant::now();
-        let (_, gbuffer) = scene_gbuffer(&arg.scene)?;
+        let (scene, gbuffer) = scene_gbuffer(&arg.scene)?;
         let geometry_ms = start.elapsed().as_secs_f64() * 1e3;
         let set = samples_from_file(&gbuffer, &arg.painting)?;
         set.insert_into(view as u32, &mut table, &mut changes)
@@ -94,8 +107,13 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
                 anyhow::anyhow!("{}: pixel {pixel}: {e}", arg.painting.display())
             })?;
         let c = set.counts;
+        let bounded = set
+            .samples
+            .iter()
+            .filter(|s| s.bounds != crate::solver::EXACT)
+            .count();
         println!(
-            "view {view}: {} = {}\n  samples used {}, skipped {} (background {}, shadow {}, grazing {}, invalid paint {})\n  geometry {geometry_ms:.0} ms, painting {:.0} ms",
+            "view {view}: {} = {}\n  samples used {}, skipped {} (background {}, shadow {}, grazing {}, invalid paint {}){}\n  geometry {geometry_ms:.0} ms, painting {:.0} ms",
             arg.scene.display(),
             arg.painting.display(),
             c.used,
@@ -104,6 +122,11 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
             c.shadow,
             c.grazing,
             c.invalid,
+            if bounded > 0 {
+                format!("; {bounded} clipped (used as bounds)")
+            } else {
+                String::new()
+            },
             start.elapsed().as_secs_f64() * 1e3 - geometry_ms
         );
         if c.invalid > 0 {
@@ -113,15 +136,24 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
                 c.invalid
             );
         }
+        scenes.push(scene);
     }
     if table.sample_count() == 0 {
         bail!(
             "no painted pixel gave a sample: every pixel is background, in shadow or at a grazing angle"
         );
     }
+    Ok(PaintedViews {
+        table,
+        changes,
+        scenes,
+    })
+}
 
+/// The basis of `options`, from the cache or built (with a progress bar), reported.
+pub(crate) fn load_basis(options: &BasisOptions) -> anyhow::Result<Arc<Basis>> {
     let start = Instant::now();
-    let spec = args.basis.spec();
+    let spec = options.spec();
     let cache = BasisCache::default_location()?;
     let (basis, outcome) = cache.load_or_build(&spec, false, &super::basis_progress_bar())?;
     let how = match outcome {
@@ -135,22 +167,40 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
         spec.database.size,
         start.elapsed().as_secs_f64() * 1e3
     );
+    Ok(basis)
+}
 
+/// The solver with every painted bin applied.
+pub(crate) fn solve_views(
+    basis: Arc<Basis>,
+    regularization: Regularization,
+    painted: &PaintedViews,
+) -> Solver {
     let start = Instant::now();
-    let mut solver = Solver::new(basis.clone(), args.lambda);
-    solver.apply_all(&changes);
+    let mut solver = Solver::new(basis, regularization);
+    solver.apply_all(&painted.changes);
     let solution = solver.solve();
     println!(
         "solve: {} observed bins, {} inconsistent, α = {:.3e}, condition number {:.3e}, {:.1} ms",
-        table.observed_count(),
-        table.inconsistent_count(),
+        painted.table.observed_count(),
+        painted.table.inconsistent_count(),
         solution.alpha,
         solution.condition_number,
         start.elapsed().as_secs_f64() * 1e3
     );
+    solver
+}
+
+pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
+    let total = Instant::now();
+    let painted = read_views(&args.views, args.policy)?;
+    let basis = load_basis(&args.basis)?;
+    let solver = solve_views(basis.clone(), args.lambda, &painted);
+    let solution = solver.solve();
 
     let start = Instant::now();
-    let full = Reconstruction::new(basis, &solution.coefficients).materialize();
+    let reconstruction = Reconstruction::new(basis, &solution.coefficients);
+    let full = reconstruction.materialize();
     let materialize_ms = start.elapsed().as_secs_f64() * 1e3;
     let start = Instant::now();
     super::ensure_parent(&args.out)?;
@@ -167,6 +217,17 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
         println!(
             "MERL binary written to {} in {:.0} ms",
             merl.display(),
+            start.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    if let Some(path) = &args.uncertainty {
+        let start = Instant::now();
+        let sd = solver.posterior().table_std_dev(&reconstruction);
+        super::ensure_parent(path)?;
+        write_table_exr(path, &sd)?;
+        println!(
+            "uncertainty (posterior standard deviation of ρ) written to {} in {:.0} ms",
+            path.display(),
             start.elapsed().as_secs_f64() * 1e3
         );
     }

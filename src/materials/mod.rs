@@ -57,17 +57,21 @@ fn to_rgb32(rgb: [f64; 3]) -> [f32; 3] {
 
 /// Values of an isotropic BRDF at every (t_l, t_v, Δp) bin-centre combination.
 fn isotropic_slices(brdf: &dyn Brdf) -> Vec<[f32; 3]> {
+    // Bin-centre directions at azimuth index p (light at p = 0), computed once.
+    let directions: Vec<DVec3> = (0..THETA_BINS * PHI_BINS)
+        .map(|i| {
+            let (st, ct) = theta_centre(i / PHI_BINS).sin_cos();
+            let (sp, cp) = phi_centre(i % PHI_BINS).sin_cos();
+            DVec3::new(st * cp, st * sp, ct)
+        })
+        .collect();
     (0..THETA_BINS * THETA_BINS)
         .into_par_iter()
         .flat_map_iter(|tt| {
             let (t_l, t_v) = (tt / THETA_BINS, tt % THETA_BINS);
-            let at = |t: usize, p: usize| {
-                let (st, ct) = theta_centre(t).sin_cos();
-                let (sp, cp) = phi_centre(p).sin_cos();
-                DVec3::new(st * cp, st * sp, ct)
-            };
-            let l = at(t_l, 0);
-            (0..PHI_BINS).map(move |dp| to_rgb32(brdf.eval(l, at(t_v, dp))))
+            let l = directions[t_l * PHI_BINS];
+            let views = &directions[t_v * PHI_BINS..(t_v + 1) * PHI_BINS];
+            views.iter().map(move |&v| to_rgb32(brdf.eval(l, v)))
         })
         .collect()
 }

@@ -22,7 +22,8 @@
 //! **Updates.** N = Σ_p w_p ψ_pψ_pᵀ and r_c = Σ_p w_p ψ_p y_pc are kept up to date one bin change
 //! at a time (O(K²) when a bin appears, empties or its weight changes, O(K) when only its value
 //! does), in f64, with an exact rebuild every [`Solver::REBUILD_INTERVAL`] changes and whenever
-//! L̄ drifts from the value the weights were computed with by more than a fifth.
+//! L̄, rounded to half octaves, changes (the weights then depend on the set of painted bins
+//! alone, never on the order they were painted in).
 //!
 //! **Censored bins** (clipped LDR paint) are bounds, solved for by majorise–minimise.
 
@@ -177,8 +178,10 @@ const CALIBRATED_BRIGHTNESS_FLOOR: f64 = 0.3;
 /// Bounds of the α search (mapped-domain variance).
 const ALPHA_MIN: f64 = 1e-5;
 const ALPHA_MAX: f64 = 100.0;
-/// L̄ may drift this far (as a ratio) from the value the weights use before they are redone.
-const BRIGHTNESS_DRIFT: f64 = 1.2;
+/// L̄ enters the weights rounded to a power of this step (log2), so the weights are a function
+/// of the painted bins alone, whatever the order they came in: the incremental state equals a
+/// batch build, and N is rebuilt only when the rounded L̄ changes.
+const BRIGHTNESS_REFERENCE_STEP_LOG2: f64 = 0.5;
 /// Brightness weights are rounded to powers of this step, so that repainting a bin with a
 /// similar value changes only the right-hand side.
 const BRIGHTNESS_STEP_LOG2: f64 = 0.25;
@@ -435,17 +438,24 @@ impl Solver {
         }
     }
 
-    /// True when L̄ left the band around the value the weights were computed with.
+    /// L̄ of the painted bins, rounded to a power of 2^[`BRIGHTNESS_REFERENCE_STEP_LOG2`]
+    /// (0 when nothing bright is painted).
+    fn brightness_reference_now(&self) -> f64 {
+        if self.observed.is_empty() {
+            return 0.0;
+        }
+        let mean = self.brightness_sum / self.observed.len() as f64;
+        if !(mean > 1e-12) {
+            return 0.0;
+        }
+        let step = BRIGHTNESS_REFERENCE_STEP_LOG2;
+        ((mean.log2() / step).round() * step).exp2()
+    }
+
+    /// True when the rounded L̄ is no longer the one the weights were computed with.
     fn brightness_drifted(&self) -> bool {
-        if self.model.brightness_exponent == 0.0 || self.observed.is_empty() {
-            return false;
-        }
-        let mean = self.brightness_sum.max(0.0) / self.observed.len() as f64;
-        let reference = self.brightness_reference;
-        if !(reference > 0.0) {
-            return mean > 0.0;
-        }
-        mean > reference * BRIGHTNESS_DRIFT || mean * BRIGHTNESS_DRIFT < reference
+        self.model.brightness_exponent != 0.0
+            && self.brightness_reference_now() != self.brightness_reference
     }
 
     /// Recomputes L̄, every weight and the normal equations exactly from the observed bins.
@@ -456,11 +466,7 @@ impl Solver {
         self.yty = [0.0; 3];
         self.weight_sum = 0.0;
         self.brightness_sum = self.observed.values().map(|o| o.brightness).sum();
-        self.brightness_reference = if self.observed.is_empty() {
-            0.0
-        } else {
-            self.brightness_sum / self.observed.len() as f64
-        };
+        self.brightness_reference = self.brightness_reference_now();
         let mut observed = std::mem::take(&mut self.observed);
         for (&pair, obs) in observed.iter_mut() {
             obs.weight = self.weight_of(pair, obs.brightness);
@@ -834,6 +840,62 @@ fn accumulate(
         yty[c] += w * obs.y[c] * obs.y[c];
     }
     *weight_sum += w;
+}
+
+impl Posterior {
+    /// Per-pair standard deviation of ρ given the painted bins: the coefficients' posterior
+    /// variance at the pair plus what the basis cannot follow there (its residual over the
+    /// database), carried from the mapped domain to ρ through the map's slope
+    /// (ρc + ε)/c at the reconstruction's value. Where the table is guessed rather than
+    /// painted this is large; on painted bins it is small.
+    pub fn table_std_dev(&self, reconstruction: &super::Reconstruction) -> crate::table::SymTable {
+        use rayon::prelude::*;
+        let basis = reconstruction.basis();
+        let k = self.components;
+        // The covariance's K × K blocks between neighbouring sets, as f64 rows.
+        let block = |a: usize, b: usize| -> Vec<f64> {
+            (0..k * k)
+                .map(|i| self.covariance[(a * k + i / k, b * k + i % k)])
+                .collect()
+        };
+        let sets = self.model.bands;
+        let diagonal: Vec<Vec<f64>> = (0..sets).map(|a| block(a, a)).collect();
+        let next: Vec<Vec<f64>> = (0..sets.saturating_sub(1))
+            .map(|a| block(a, a + 1))
+            .collect();
+        let quadratic = |m: &[f64], u: &[f32]| -> f64 {
+            let mut sum = 0.0;
+            for i in 0..k {
+                let row = &m[i * k..(i + 1) * k];
+                let t: f64 = row.iter().zip(u).map(|(c, &x)| c * x as f64).sum();
+                sum += u[i] as f64 * t;
+            }
+            sum
+        };
+        let residuals = basis.residuals();
+        let values: Vec<crate::table::Rgb> = (0..crate::table::PAIRS)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|pair| {
+                let u = basis.row(pair);
+                let w = self.model.band_weights(pair as u32);
+                let (a, f) = (w.lower as usize, w.frac as f64);
+                let mut var = (1.0 - f) * (1.0 - f) * quadratic(&diagonal[a], u);
+                if f != 0.0 {
+                    var += 2.0 * f * (1.0 - f) * quadratic(&next[a], u)
+                        + f * f * quadratic(&diagonal[a + 1], u);
+                }
+                let sd = (var.max(0.0) + residuals[pair] as f64).sqrt();
+                let c = crate::basis::cos_weight(pair);
+                reconstruction.eval_pair(pair).map(|rho| {
+                    let slope = (rho as f64 * c + crate::basis::MAP_EPSILON) / c;
+                    let v = (slope * sd) as f32;
+                    if v.is_finite() { v } else { f32::MAX }
+                })
+            })
+            .collect();
+        crate::table::SymTable::from_pairs(values).expect("PAIRS values")
+    }
 }
 
 /// Prior standard deviation per component, floored so that a degenerate component

@@ -1,0 +1,85 @@
+//! `burnish suggest`: which view to paint next, from the paintings so far.
+
+use super::reconstruct_cmd::{BasisOptions, ViewArg, load_basis, read_views, solve_views};
+use crate::next_view::{CANDIDATE_RESOLUTION, candidate_scenes, rank_views};
+use crate::scene::Object;
+use crate::solver::{Policy, Regularization};
+use anyhow::Context;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Candidates: lights spread over the sky (10° to 80° above the horizon) with the last \
+view's camera, a third of them with the camera turned 35° aside and 20° up, all on the last view's object. \
+Each is scored by the drop in posterior variance of ρ·cos θ_l·cos θ_v over the table that painting it (as the \
+current reconstruction predicts) would bring."
+)]
+pub struct SuggestArgs {
+    /// A view painted so far: its scene file and the painting (PNG or EXR). Repeatable.
+    #[arg(long = "view", required = true, value_name = "SCENE.toml=PAINTING")]
+    pub views: Vec<ViewArg>,
+    /// How many candidate views to rank.
+    #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u16).range(1..=1000))]
+    pub candidates: u16,
+    /// How many of the best to list.
+    #[arg(long, default_value_t = 5)]
+    pub show: usize,
+    /// Write the best candidate as a scene file here (SCENE.md), ready for `burnish guide`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub basis: BasisOptions,
+    /// Regularisation, as for `reconstruct`.
+    #[arg(long, default_value = "auto")]
+    pub lambda: Regularization,
+}
+
+pub fn run(args: &SuggestArgs) -> anyhow::Result<()> {
+    let painted = read_views(&args.views, Policy::Mean)?;
+    let basis = load_basis(&args.basis)?;
+    let solver = solve_views(basis, args.lambda, &painted);
+    let base = painted
+        .scenes
+        .last()
+        .expect("read_views reads at least one view")
+        .clone();
+    let object = Object::load(&base.object_source()).with_context(|| {
+        format!(
+            "loading the object of scene {}",
+            args.views
+                .last()
+                .map_or(String::new(), |v| v.scene.display().to_string())
+        )
+    })?;
+    let start = Instant::now();
+    let candidates = candidate_scenes(&base, args.candidates as usize);
+    let observed = painted.table.observed().map(|(pair, _)| pair).collect();
+    let ranked = rank_views(&solver, &object, &candidates, &observed);
+    println!(
+        "ranked {} candidates (bins found at {CANDIDATE_RESOLUTION}²) in {:.1} s",
+        ranked.len(),
+        start.elapsed().as_secs_f64()
+    );
+    for (i, r) in ranked.iter().take(args.show.max(1)).enumerate() {
+        let (light, camera) = (&r.scene.light, &r.scene.camera);
+        println!(
+            "{}. light elevation {:5.1}°, azimuth {:6.1}°; camera yaw {:5.1}°, pitch {:5.1}°: score {:.4e}, {} bins ({} new)",
+            i + 1,
+            light.elevation_deg,
+            light.azimuth_deg,
+            camera.yaw_deg,
+            camera.pitch_deg,
+            r.score,
+            r.bins,
+            r.new_bins
+        );
+    }
+    if let (Some(path), Some(best)) = (&args.out, ranked.first()) {
+        super::ensure_parent(path)?;
+        // Scene::save keeps a relative OBJ path valid from the new file's folder.
+        best.scene.save(path)?;
+        println!("wrote the best view to {}", path.display());
+    }
+    Ok(())
+}

@@ -128,6 +128,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
         CacheOutcome::Loaded => "loaded from cache".to_string(),
         CacheOutcome::Built => "built".to_string(),
         CacheOutcome::Rebuilt { reason } => format!("rebuilt ({reason})"),
+        CacheOutcome::NotStored { reason } => format!("built, not cached ({reason})"),
     };
     println!(
         "basis: K = {}, {} materials, {how} in {:.0} ms",

@@ -900,3 +900,58 @@ fn a_read_only_basis_cache_still_gives_a_basis_with_a_warning() {
     });
     assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 0);
 }
+
+/// An autosave the disk refuses is reported once, however often it is retried; the painting
+/// stays in the app, and once the disk takes writes again the app says so and the recovery
+/// file holds the painting.
+#[test]
+fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    let recovery = data.join("recovery.burnish");
+    let full = burnish::fs_atomic::simulate_full_disk(&data, 100);
+    let mut harness = open_app(autosaving(&recovery));
+    let step_until = |harness: &mut Harness<'static, BurnishApp>, what: &str| {
+        let deadline = std::time::Instant::now() + Duration::from_secs(60);
+        loop {
+            harness.step();
+            if harness
+                .state()
+                .notices
+                .iter()
+                .any(|n| n.text.contains(what))
+            {
+                break;
+            }
+            assert!(std::time::Instant::now() < deadline, "no notice {what:?}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    };
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    step_until(&mut harness, "autosave failed");
+    stroke(&mut harness, (0.5, 0.3), (0.5, 0.7));
+    std::thread::sleep(burnish::session::AUTOSAVE_RETRY + Duration::from_millis(500));
+    harness.run_steps(3);
+    let errors = error_texts(&harness);
+    assert_eq!(
+        errors.len(),
+        1,
+        "one notice for the failing disk: {errors:?}"
+    );
+    assert!(
+        errors[0].contains("recovery.burnish") && errors[0].contains("No space left on device"),
+        "{errors:?}"
+    );
+    assert!(!recovery.exists());
+    let painted = harness.state().views[0].canvas.layers().clone();
+    assert!(painted.painted_count() > 500, "the painting is kept");
+
+    drop(full);
+    step_until(&mut harness, "autosave works again");
+    harness.state_mut().flush_autosave().unwrap();
+    let info = burnish::session::pending_recovery_at(&recovery)
+        .unwrap()
+        .expect("written once the disk takes it");
+    assert!(info.open().unwrap().views[0].paint == painted);
+}

@@ -531,7 +531,7 @@ fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
             .name
             .clone()
     };
-    assert_eq!(AUTOSAVE_DELAY, Duration::from_secs(3));
+    assert_eq!(AUTOSAVE_DELAY, Duration::from_secs(2));
     assert_eq!(AUTOSAVE_MIN_GAP, Duration::from_secs(1));
 
     // Nothing changed yet: nothing to write, and no reason to be woken.
@@ -542,12 +542,9 @@ fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
     assert!(!autosaver.maybe_save(at(1.0), true, true, || snapshot("too soon")));
     assert_eq!(autosaver.wake_in(at(1.0)), Some(AUTOSAVE_DELAY));
     assert!(!autosaver.maybe_save(at(2.5), true, true, || snapshot("too soon")));
-    assert_eq!(
-        autosaver.wake_in(at(2.5)),
-        Some(Duration::from_millis(1500))
-    );
+    assert_eq!(autosaver.wake_in(at(2.5)), Some(Duration::from_millis(500)));
     // Due even without a new change in this call (the pointer rests, the window idles).
-    assert!(autosaver.maybe_save(at(4.0), false, true, || snapshot("mid-stroke")));
+    assert!(autosaver.maybe_save(at(3.0), false, true, || snapshot("mid-stroke")));
     autosaver.flush().unwrap();
     let info = pending_recovery_at(&recovery)
         .unwrap()
@@ -560,10 +557,10 @@ fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
 
     // The stroke goes on, then ends: written at once, but not sooner than the least gap
     // after the previous write.
-    assert!(!autosaver.maybe_save(at(4.2), true, true, || snapshot("too soon")));
-    assert!(!autosaver.maybe_save(at(4.5), false, false, || snapshot("too soon")));
-    assert_eq!(autosaver.wake_in(at(4.5)), Some(Duration::from_millis(500)));
-    assert!(autosaver.maybe_save(at(5.0), false, false, || snapshot("stroke done")));
+    assert!(!autosaver.maybe_save(at(3.2), true, true, || snapshot("too soon")));
+    assert!(!autosaver.maybe_save(at(3.5), false, false, || snapshot("too soon")));
+    assert_eq!(autosaver.wake_in(at(3.5)), Some(Duration::from_millis(500)));
+    assert!(autosaver.maybe_save(at(4.0), false, false, || snapshot("stroke done")));
     autosaver.flush().unwrap();
     assert_eq!(saved_name(), "stroke done");
 

@@ -21,7 +21,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
 /// The longest a change waits for its write to start while the edit it belongs to goes on.
-pub const AUTOSAVE_DELAY: Duration = Duration::from_secs(3);
+pub const AUTOSAVE_DELAY: Duration = Duration::from_secs(2);
 /// The least time between the starts of two writes, so that quick strokes in a row don't
 /// keep the disk and a core busy.
 pub const AUTOSAVE_MIN_GAP: Duration = Duration::from_secs(1);

@@ -222,12 +222,13 @@ fn a_sigkilled_app_loses_no_stroke_and_recovery_restores_it() {
     stroke.extend(["mouseup".into(), "1".into()]);
     display.xdotool(&stroke.iter().map(String::as_str).collect::<Vec<_>>());
     let released = Instant::now();
-    // Idle: no input at all from here. The stroke must reach the disk on its own.
-    let on_disk = wait_for(Duration::from_secs(5), || {
+    // Idle: no input at all from here. The stroke must reach the disk on its own. (The
+    // wait is generous for a loaded CI machine, where the window may lag its input.)
+    let idle = Duration::from_secs(8);
+    let on_disk = wait_for(idle, || {
         recovered_paint(&recovery).is_some_and(|p| p.painted_count() > 0)
     });
-    let idle = Duration::from_secs(5).saturating_sub(released.elapsed());
-    std::thread::sleep(idle);
+    std::thread::sleep(idle.saturating_sub(released.elapsed()));
     drop(app); // SIGKILL
     let first = recovered_paint(&recovery).unwrap_or_else(|| {
         panic!(
@@ -241,9 +242,13 @@ fn a_sigkilled_app_loses_no_stroke_and_recovery_restores_it() {
         "the recovery file holds the stroke ({painted} painted pixels):\n{}",
         read_log(&log)
     );
+    // A figure for the record (timing is not asserted: tests are not benchmarks).
     eprintln!(
-        "stroke on disk {:.0} ms after its release (idle, no input); {painted} pixels",
-        on_disk.expect("the stroke reached the disk").as_secs_f64() * 1e3
+        "stroke on disk {} after its release (idle, no input); {painted} pixels",
+        on_disk.map_or("only after the kill's wait".into(), |t| format!(
+            "{:.0} ms",
+            t.as_secs_f64() * 1e3
+        ))
     );
     let info = pending_recovery_at(&recovery).unwrap().unwrap();
     assert_eq!(info.session_path.as_deref(), Some(session_file.as_path()));

@@ -26,7 +26,24 @@ impl Drop for Killed {
 /// A virtual X display, `:N`, for the test's own use.
 struct Display {
     name: String,
-    _server: Killed,
+    server: Child,
+}
+
+impl Drop for Display {
+    /// Ends the server with SIGTERM, so that it removes its lock file and socket.
+    fn drop(&mut self) {
+        // SAFETY: kill(2) on the server's own process id.
+        unsafe { libc::kill(self.server.id() as libc::pid_t, libc::SIGTERM) };
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.server.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.server.kill();
+        let _ = self.server.wait();
+    }
 }
 
 fn start_display() -> Display {
@@ -43,17 +60,14 @@ fn start_display() -> Display {
             .stderr(Stdio::null())
             .spawn()
             .expect("Xvfb must be installed to run this test (.ci/run installs the xvfb package)");
-        let mut server = Killed(server);
+        let mut display = Display { name, server };
         let socket = PathBuf::from(format!("/tmp/.X11-unix/X{number}"));
         let deadline = Instant::now() + Duration::from_secs(20);
         while Instant::now() < deadline {
-            if socket.exists() && xdotool_on(&name, &["getdisplaygeometry"]).is_some() {
-                return Display {
-                    name,
-                    _server: server,
-                };
+            if socket.exists() && xdotool_on(&display.name, &["getdisplaygeometry"]).is_some() {
+                return display;
             }
-            if let Ok(Some(_)) = server.0.try_wait() {
+            if let Ok(Some(_)) = display.server.try_wait() {
                 break; // Taken after all: try the next number.
             }
             std::thread::sleep(Duration::from_millis(50));

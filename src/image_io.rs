@@ -36,12 +36,53 @@ impl RgbImage {
 /// ZIP16 (21.6 MB) and PIZ (23.4 MB) take over a second.
 const ENCODING: Encoding = Encoding::UNCOMPRESSED;
 
+/// How many times its compressed size an EXR's pixel data may be. Deflate (ZIP) tops out
+/// near 1032 : 1; RLE, PIZ, PXR24, B44A and DWA of a flat image stay below this bound.
+const MAX_EXR_EXPANSION: u64 = 4096;
+
+/// Refuses a header that declares more pixel data than a file of `file_len` bytes can
+/// hold. Checked before any pixel is decoded, so that a few bytes claiming a huge image
+/// never allocate gigabytes.
+pub(crate) fn check_exr_data_size(
+    header: &exr::meta::header::Header,
+    file_len: usize,
+) -> std::result::Result<(), String> {
+    let size = header.layer_size;
+    let bytes_per_pixel = header.channels.bytes_per_pixel.max(1) as u64;
+    let declared = (size.width() as u64)
+        .checked_mul(size.height() as u64)
+        .and_then(|pixels| pixels.checked_mul(bytes_per_pixel));
+    let expansion = match header.compression {
+        exr::compression::Compression::Uncompressed => 1,
+        _ => MAX_EXR_EXPANSION,
+    };
+    match declared {
+        Some(bytes) if bytes <= file_len as u64 * expansion => Ok(()),
+        _ => Err(format!(
+            "the header declares a {} × {} image, more pixel data than a file of {file_len} \
+             bytes can hold (truncated or corrupt)",
+            size.width(),
+            size.height()
+        )),
+    }
+}
+
 /// Reads the R, G and B channels of the first layer that has all three, converting any
 /// sample type to f32 and ignoring every other channel (alpha included).
 pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
     let path = path.as_ref();
     // One read into memory: the file is parsed twice (header check, then pixels).
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_exr_rgb(&bytes, path, |_, _| Ok(()))
+}
+
+/// [`read_exr_rgb`] of a file's bytes; `path` names it in errors. `check_size` is given the
+/// image's width and height from the header, before any pixel is decoded, and may refuse it.
+pub fn decode_exr_rgb(
+    bytes: &[u8],
+    path: &Path,
+    check_size: impl FnOnce(usize, usize) -> Result<()>,
+) -> Result<RgbImage> {
     let not_exr = |e: exr::error::Error| match e {
         exr::error::Error::Io(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
             Error::io(path, io)
@@ -50,13 +91,13 @@ pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
     };
 
     let meta =
-        exr::meta::MetaData::read_from_buffered(Cursor::new(&bytes[..]), false).map_err(not_exr)?;
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(not_exr)?;
     let has_rgb = |h: &exr::meta::header::Header| {
         ["R", "G", "B"]
             .iter()
             .all(|name| h.channels.list.iter().any(|c| c.name == **name))
     };
-    if !meta.headers.iter().any(has_rgb) {
+    let Some(header) = meta.headers.iter().find(|h| has_rgb(h)) else {
         let found: Vec<String> = meta
             .headers
             .iter()
@@ -69,6 +110,11 @@ pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
                 found.join(", ")
             ),
         ));
+    };
+    check_size(header.layer_size.width(), header.layer_size.height())?;
+    for header in &meta.headers {
+        check_exr_data_size(header, bytes.len())
+            .map_err(|problem| Error::invalid(path, problem))?;
     }
 
     let image = read()
@@ -83,7 +129,7 @@ pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
         )
         .first_valid_layer()
         .all_attributes()
-        .from_buffered(Cursor::new(&bytes[..]))
+        .from_buffered(Cursor::new(bytes))
         .map_err(not_exr)?;
     Ok(image.layer_data.channel_data.pixels)
 }

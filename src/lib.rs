@@ -12,6 +12,7 @@
 pub mod app;
 pub mod basis;
 pub mod bench;
+pub mod bounded_read;
 pub mod cli;
 pub mod error;
 pub mod fs_atomic;

@@ -667,3 +667,483 @@ fn inspection_view_snapshots() {
     settle(&mut harness);
     window_snapshot(&mut harness, "table_viridis_overlays");
 }
+
+#[path = "support/read_only.rs"]
+mod read_only;
+
+/// The app autosaving to `recovery` (in a test's own folder).
+fn autosaving(recovery: &std::path::Path) -> AppConfig {
+    AppConfig {
+        autosave: true,
+        recovery_file: Some(recovery.to_path_buf()),
+        ..config()
+    }
+}
+
+/// The canvas position of a fraction (`u`, `v`) of the canvas side, in points.
+fn canvas_point(harness: &Harness<'static, BurnishApp>, (u, v): (f32, f32)) -> Pos2 {
+    let (rect, _) = harness
+        .state()
+        .canvas_layout()
+        .expect("the canvas is laid out");
+    Pos2::new(
+        rect.min.x + u * rect.width(),
+        rect.min.y + v * rect.height(),
+    )
+}
+
+fn press(harness: &mut Harness<'static, BurnishApp>, pos: Pos2, pressed: bool) {
+    harness.event(Event::PointerButton {
+        pos,
+        button: PointerButton::Primary,
+        pressed,
+        modifiers: Modifiers::NONE,
+    });
+}
+
+fn error_texts(harness: &Harness<'static, BurnishApp>) -> Vec<String> {
+    let notices = &harness.state().notices;
+    notices
+        .iter()
+        .filter(|n| n.is_error)
+        .map(|n| n.text.clone())
+        .collect()
+}
+
+/// An idle window draws no frames: the app must ask for one when its autosave falls due.
+/// A stroke is held (the pointer rests, nothing moves, no input comes); the frame the app
+/// asked for, and only it, writes the recovery file.
+#[test]
+fn autosave_happens_while_idle_with_no_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let recovery = dir.path().join("recovery.burnish");
+    let mut harness = open_app(autosaving(&recovery));
+    harness.run_steps(3);
+    assert!(
+        !recovery.exists(),
+        "an untouched session has nothing to recover"
+    );
+
+    let requests = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let seen = requests.clone();
+    harness
+        .ctx
+        .set_repaint_observer(move |info| seen.lock().unwrap().push(info.delay));
+    harness.state_mut().brush.size = 20.0;
+    let start = canvas_point(&harness, (0.3, 0.5));
+    harness.event(Event::PointerMoved(start));
+    harness.step();
+    press(&mut harness, start, true);
+    harness.step();
+    for i in 1..=6 {
+        harness.event(Event::PointerMoved(canvas_point(
+            &harness,
+            (0.3 + 0.05 * i as f32, 0.5),
+        )));
+        harness.step();
+    }
+    // The last frame with input: what it asks for is what the event loop will do next.
+    requests.lock().unwrap().clear();
+    let painted_at = std::time::Instant::now();
+    harness.step();
+    let painted = harness.state().views[0].canvas.layers().clone();
+    assert!(painted.painted_count() > 100, "{}", painted.painted_count());
+    assert!(!recovery.exists(), "a stroke under way waits for the delay");
+
+    // The app asked for a frame at the time its write falls due (immediate requests are
+    // the worker's and egui's own).
+    let delay = requests
+        .lock()
+        .unwrap()
+        .iter()
+        .copied()
+        .filter(|d| *d > Duration::ZERO)
+        .min()
+        .expect("a repaint is requested for the autosave");
+    assert!(
+        delay <= burnish::session::AUTOSAVE_DELAY,
+        "the write is due within the delay, asked for in {delay:?}"
+    );
+    std::thread::sleep(delay.saturating_sub(painted_at.elapsed()) + Duration::from_millis(100));
+    // The frame the event loop draws for that request, with no input.
+    harness.step();
+    harness.state_mut().flush_autosave().unwrap();
+    let info = burnish::session::pending_recovery_at(&recovery)
+        .unwrap()
+        .expect("the idle frame wrote the recovery file");
+    let recovered = info.open().unwrap();
+    assert!(
+        recovered.views[0].paint == painted,
+        "the recovery file holds the stroke as painted so far"
+    );
+
+    // Released: the finished stroke is written (no later than the least gap).
+    let end = canvas_point(&harness, (0.7, 0.5));
+    press(&mut harness, end, false);
+    harness.step();
+    std::thread::sleep(burnish::session::AUTOSAVE_MIN_GAP);
+    harness.step();
+    harness.state_mut().flush_autosave().unwrap();
+    let finished = harness.state().views[0].canvas.layers().clone();
+    assert!(info.open().unwrap().views[0].paint == finished);
+}
+
+/// A fast stroke brings its press, every move and its release within one frame: it paints
+/// exactly what the same events spread over many frames paint, from where the button went
+/// down.
+#[test]
+fn a_stroke_faster_than_the_frames_loses_no_dab() {
+    let path: Vec<(f32, f32)> = (0..=24)
+        .map(|i| {
+            let t = i as f32 / 24.0;
+            (0.25 + 0.5 * t, 0.4 + 0.2 * (t * 6.0).sin())
+        })
+        .collect();
+    let paint = |one_frame: bool| {
+        let mut harness = open_app(config());
+        harness.state_mut().brush.size = 6.0;
+        let points: Vec<Pos2> = path.iter().map(|&p| canvas_point(&harness, p)).collect();
+        harness.event(Event::PointerMoved(points[0]));
+        harness.step();
+        let button = |pos, pressed| Event::PointerButton {
+            pos,
+            button: PointerButton::Primary,
+            pressed,
+            modifiers: Modifiers::NONE,
+        };
+        let mut events = vec![button(points[0], true)];
+        events.extend(points[1..].iter().map(|&p| Event::PointerMoved(p)));
+        events.push(button(*points.last().unwrap(), false));
+        if one_frame {
+            // Straight into the next frame's input: the harness's own event queue may give
+            // each event a frame of its own.
+            harness.input_mut().events.extend(events);
+            harness.step();
+        } else {
+            for event in events {
+                harness.input_mut().events.push(event);
+                harness.step();
+            }
+        }
+        settle(&mut harness);
+        harness.state().views[0].canvas.layers().clone()
+    };
+    let slow = paint(false);
+    let fast = paint(true);
+    assert!(slow.painted_count() > 500, "{}", slow.painted_count());
+    assert!(
+        fast == slow,
+        "one frame of events paints what many frames do"
+    );
+    // The first dab sits where the button went down.
+    let resolution = 256usize;
+    let pixel = |(u, v): (f32, f32)| {
+        (v * resolution as f32) as usize * resolution + (u * resolution as f32) as usize
+    };
+    assert!(
+        fast.coverage[pixel(path[0])] > 0.0,
+        "the stroke starts at the press"
+    );
+    assert!(fast.coverage[pixel(path[12])] > 0.0);
+    assert!(fast.coverage[pixel(*path.last().unwrap())] > 0.0);
+}
+
+/// A save that the disk refuses (full, or a read-only folder) says why; the file saved
+/// before is intact, and the painting and its undo history stay in the app.
+#[test]
+fn a_refused_save_says_why_and_keeps_the_painting() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("sessions");
+    std::fs::create_dir(&folder).unwrap();
+    let path = folder.join("work.burnish");
+
+    let check = |harness: &mut Harness<'static, BurnishApp>, expected: &str| {
+        let before = std::fs::read(&path).unwrap();
+        let session = harness.state().to_session();
+        harness.state_mut().notices.clear();
+        harness
+            .state_mut()
+            .perform(Action::SaveSession(path.clone()));
+        let errors = error_texts(harness);
+        assert!(
+            errors
+                .iter()
+                .any(|e| e.contains("work.burnish") && e.contains(expected)),
+            "{errors:?}"
+        );
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            before,
+            "the old file is intact"
+        );
+        assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 1);
+        let app = harness.state();
+        assert!(app.dirty, "the changes are still unsaved");
+        assert_eq!(app.to_session(), session, "the painting is kept");
+        assert!(app.views[0].canvas.can_undo(), "and so is its undo history");
+    };
+
+    let mut harness = open_app(config());
+    harness
+        .state_mut()
+        .perform(Action::SaveSession(path.clone()));
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    {
+        let _full = burnish::fs_atomic::simulate_full_disk(&folder, 4096);
+        check(&mut harness, "No space left on device");
+    }
+    drop(harness);
+
+    read_only::with_read_only_dir(&folder, || {
+        let mut harness = open_app(config());
+        stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+        check(&mut harness, "Permission denied");
+    });
+
+    // Saving works again once the disk does; the undo history survives the save.
+    let mut harness = open_app(config());
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    let painted = harness.state().views[0].canvas.layers().clone();
+    harness
+        .state_mut()
+        .perform(Action::SaveSession(path.clone()));
+    assert!(error_texts(&harness).is_empty());
+    assert!(!harness.state().dirty);
+    assert!(harness.state().views[0].canvas.can_undo());
+    harness.state_mut().perform(Action::Undo);
+    settle(&mut harness);
+    assert!(harness.state().views[0].canvas.layers() != &painted);
+    assert_eq!(
+        harness.state().snapshot.stats.samples,
+        0,
+        "undo after a save"
+    );
+}
+
+/// A crash leaves a recovery file; the next start offers it and writes nothing over it
+/// until the user answers; Recover brings the stroke back and says that undo history was
+/// not kept.
+#[test]
+fn recovery_brings_back_the_painting_and_is_never_overwritten_before_the_answer() {
+    let dir = tempfile::tempdir().unwrap();
+    let recovery = dir.path().join("recovery.burnish");
+    let crashed = {
+        let mut harness = open_app(autosaving(&recovery));
+        harness.state_mut().brush.colour = [3.0, 0.5, 0.25];
+        stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+        harness.step();
+        harness.state_mut().flush_autosave().unwrap();
+        // No clean exit: dropped as a killed process would leave it (the recovery file stays).
+        harness.state().to_session()
+    };
+    let written = std::fs::read(&recovery).expect("the stroke was autosaved");
+
+    let mut harness = open_app(autosaving(&recovery));
+    assert!(
+        harness.state().recovery_offer.is_some(),
+        "recovery is offered"
+    );
+    harness.get_by_label("Recover");
+    // Painting before answering (beside the dialog) writes nothing over the offered file.
+    stroke(&mut harness, (0.3, 0.3), (0.3, 0.7));
+    assert!(harness.state().views[0].canvas.layers().painted_count() > 0);
+    std::thread::sleep(burnish::session::AUTOSAVE_MIN_GAP);
+    harness.run_steps(2);
+    harness.state_mut().flush_autosave().unwrap();
+    assert_eq!(std::fs::read(&recovery).unwrap(), written);
+
+    harness.get_by_label("Recover").click();
+    harness.run_steps(2);
+    settle(&mut harness);
+    let app = harness.state();
+    assert!(app.recovery_offer.is_none());
+    assert_eq!(app.to_session().views, crashed.views);
+    assert!(
+        app.snapshot.stats.samples > 0,
+        "the recovered paint gives samples"
+    );
+    assert!(!app.views[0].canvas.can_undo());
+    assert!(
+        app.notices
+            .iter()
+            .any(|n| !n.is_error && n.text.contains("Undo history is not kept")),
+        "the app says that undo history did not survive"
+    );
+}
+
+/// A recovery file that can't be read is reported, naming it, and moved aside; the app
+/// starts with its default session.
+#[test]
+fn an_unreadable_recovery_file_is_reported_at_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let recovery = dir.path().join("recovery.burnish");
+    std::fs::write(&recovery, b"PK\x03\x04 cut short").unwrap();
+    let harness = open_app(autosaving(&recovery));
+    let errors = error_texts(&harness);
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.contains("recovery.burnish") && e.contains("can't be recovered")),
+        "{errors:?}"
+    );
+    assert!(harness.state().recovery_offer.is_none());
+    assert!(dir.path().join("recovery-unreadable.burnish").exists());
+    assert_eq!(harness.state().views.len(), 1);
+}
+
+/// Bad files the app reads (an object, a painting, a brush preset) say what is wrong with
+/// which file, and the open session loses nothing.
+#[test]
+fn bad_files_the_app_reads_change_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let brushes = dir.path().join("brushes");
+    std::fs::create_dir(&brushes).unwrap();
+    std::fs::write(
+        brushes.join("good.toml"),
+        "name = \"Good\"\n[brush]\nkind = \"round\"\nsize = 12.0\n",
+    )
+    .unwrap();
+    std::fs::write(brushes.join("cut.toml"), "name = \"Cut\"\n[brush]\nsize = ").unwrap();
+    let mut harness = open_app(AppConfig {
+        brushes_dir: brushes,
+        ..config()
+    });
+    let errors = error_texts(&harness);
+    assert!(errors.iter().any(|e| e.contains("cut.toml")), "{errors:?}");
+    assert_eq!(
+        harness.state().presets.len(),
+        1,
+        "the good preset is still offered"
+    );
+
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    let session = harness.state().to_session();
+    let obj = dir.path().join("broken.obj");
+    // Cut short before its faces.
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\n").unwrap();
+    let exr = dir.path().join("cut.exr");
+    burnish::image_io::write_exr_rgb(
+        &exr,
+        &burnish::image_io::RgbImage::filled(256, 256, [0.5; 3]),
+    )
+    .unwrap();
+    let bytes = std::fs::read(&exr).unwrap();
+    std::fs::write(&exr, &bytes[..bytes.len() / 2]).unwrap();
+
+    harness.state_mut().notices.clear();
+    let mut scene = session.views[0].scene.clone();
+    scene.object = obj.to_string_lossy().into_owned();
+    let err = harness
+        .state_mut()
+        .set_scene(0, scene)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("broken.obj") && err.contains("no faces"),
+        "{err}"
+    );
+    harness
+        .state_mut()
+        .perform(Action::ImportPainting(exr.clone()));
+    let errors = error_texts(&harness);
+    assert!(errors.iter().any(|e| e.contains("cut.exr")), "{errors:?}");
+    settle(&mut harness);
+    assert_eq!(harness.state().to_session(), session);
+}
+
+/// A basis cache folder that can't be written: the basis is built and used from memory, and
+/// the app says that it could not be cached.
+#[test]
+fn a_read_only_basis_cache_still_gives_a_basis_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    std::fs::create_dir(&cache).unwrap();
+    read_only::with_read_only_dir(&cache, || {
+        let mut harness = open_app(AppConfig {
+            basis: None,
+            basis_cache: Some(cache.clone()),
+            basis_settings: burnish::session::BasisSettings {
+                components: 4,
+                materials: 8,
+                ..Default::default()
+            },
+            ..config()
+        });
+        let deadline = std::time::Instant::now() + Duration::from_secs(300);
+        while harness.state().basis.is_none() {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "the basis was never built"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+            harness.step();
+        }
+        settle(&mut harness);
+        let app = harness.state();
+        assert!(app.snapshot.basis.is_some(), "the worker solves with it");
+        assert!(
+            app.notices.iter().any(|n| n.text.contains("warning")
+                && n.text.contains("could not be cached")
+                && n.text.contains("Permission denied")),
+            "{:?}",
+            app.notices.iter().map(|n| &n.text).collect::<Vec<_>>()
+        );
+        harness.get_by_label_contains("basis ready, not cached");
+    });
+    assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 0);
+}
+
+/// An autosave the disk refuses is reported once, however often it is retried; the painting
+/// stays in the app, and once the disk takes writes again the app says so and the recovery
+/// file holds the painting.
+#[test]
+fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    let recovery = data.join("recovery.burnish");
+    let full = burnish::fs_atomic::simulate_full_disk(&data, 100);
+    let mut harness = open_app(autosaving(&recovery));
+    let step_until = |harness: &mut Harness<'static, BurnishApp>, what: &str| {
+        let deadline = std::time::Instant::now() + Duration::from_secs(60);
+        loop {
+            harness.step();
+            if harness
+                .state()
+                .notices
+                .iter()
+                .any(|n| n.text.contains(what))
+            {
+                break;
+            }
+            assert!(std::time::Instant::now() < deadline, "no notice {what:?}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    };
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    step_until(&mut harness, "autosave failed");
+    stroke(&mut harness, (0.5, 0.3), (0.5, 0.7));
+    std::thread::sleep(burnish::session::AUTOSAVE_RETRY + Duration::from_millis(500));
+    harness.run_steps(3);
+    let errors = error_texts(&harness);
+    assert_eq!(
+        errors.len(),
+        1,
+        "one notice for the failing disk: {errors:?}"
+    );
+    assert!(
+        errors[0].contains("recovery.burnish") && errors[0].contains("No space left on device"),
+        "{errors:?}"
+    );
+    assert!(!recovery.exists());
+    let painted = harness.state().views[0].canvas.layers().clone();
+    assert!(painted.painted_count() > 500, "the painting is kept");
+
+    drop(full);
+    step_until(&mut harness, "autosave works again");
+    harness.state_mut().flush_autosave().unwrap();
+    let info = burnish::session::pending_recovery_at(&recovery)
+        .unwrap()
+        .expect("written once the disk takes it");
+    assert!(info.open().unwrap().views[0].paint == painted);
+}

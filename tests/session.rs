@@ -3,14 +3,17 @@
 use burnish::paint::{BrushKind, BrushSettings};
 use burnish::scene::{Object, Projection, Scene};
 use burnish::session::{
-    AUTOSAVE_INTERVAL, Autosaver, BasisSettings, FORMAT_VERSION, Session, SessionView,
-    pending_recovery, pending_recovery_at, recovery_path,
+    AUTOSAVE_DELAY, AUTOSAVE_MIN_GAP, AUTOSAVE_RETRY, Autosaver, BasisSettings, FORMAT_VERSION,
+    Session, SessionView, pending_recovery, pending_recovery_at, recovery_path,
 };
 use burnish::solver::{Policy, Regularization};
 use std::cell::Cell;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+#[path = "support/read_only.rs"]
+mod read_only;
 
 /// A tetrahedron: the smallest closed mesh.
 const TETRAHEDRON: &str = "v 0 0 1\nv 0.94 0 -0.33\nv -0.47 0.82 -0.33\nv -0.47 -0.82 -0.33\n\
@@ -500,12 +503,12 @@ fn the_embedded_object_is_used_when_the_original_is_gone_or_changed() {
 }
 
 #[test]
-fn autosave_throttles_writes_and_recovery_finds_and_discards_the_file() {
+fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
     let dir = tempfile::tempdir().unwrap();
     let session = two_view_session(&write_mesh(dir.path()));
     let recovery = dir.path().join("data/recovery.burnish");
     let user_file = dir.path().join("mine.burnish");
-    assert_eq!(pending_recovery_at(&recovery), None);
+    assert_eq!(pending_recovery_at(&recovery).unwrap(), None);
 
     let mut autosaver = Autosaver::new(&recovery);
     autosaver.set_session_path(Some(user_file.clone()));
@@ -518,54 +521,73 @@ fn autosave_throttles_writes_and_recovery_finds_and_discards_the_file() {
     };
     let t0 = Instant::now();
     let at = |secs: f64| t0 + Duration::from_secs_f64(secs);
+    let saved_name = || {
+        pending_recovery_at(&recovery)
+            .unwrap()
+            .expect("a recovery file")
+            .open()
+            .unwrap()
+            .views[0]
+            .name
+            .clone()
+    };
+    assert_eq!(AUTOSAVE_DELAY, Duration::from_secs(2));
+    assert_eq!(AUTOSAVE_MIN_GAP, Duration::from_secs(1));
 
-    // Nothing changed yet: nothing to write.
-    assert!(!autosaver.maybe_save(at(0.0), false, || snapshot("never")));
-    assert!(autosaver.maybe_save(at(1.0), true, || snapshot("first")));
+    // Nothing changed yet: nothing to write, and no reason to be woken.
+    assert!(!autosaver.maybe_save(at(0.0), false, false, || snapshot("never")));
+    assert_eq!(autosaver.wake_in(at(0.0)), None);
+
+    // A long stroke: its changes wait at most the delay, counted from the first one.
+    assert!(!autosaver.maybe_save(at(1.0), true, true, || snapshot("too soon")));
+    assert_eq!(autosaver.wake_in(at(1.0)), Some(AUTOSAVE_DELAY));
+    assert!(!autosaver.maybe_save(at(2.5), true, true, || snapshot("too soon")));
+    assert_eq!(autosaver.wake_in(at(2.5)), Some(Duration::from_millis(500)));
+    // Due even without a new change in this call (the pointer rests, the window idles).
+    assert!(autosaver.maybe_save(at(3.0), false, true, || snapshot("mid-stroke")));
     autosaver.flush().unwrap();
-    let info = pending_recovery_at(&recovery).expect("a recovery file");
+    let info = pending_recovery_at(&recovery)
+        .unwrap()
+        .expect("a recovery file");
     assert_eq!(info.path, recovery);
     assert_eq!(info.views, 2);
     assert_eq!(info.session_path.as_deref(), Some(user_file.as_path()));
     assert!(info.modified.elapsed().unwrap() < Duration::from_secs(600));
-    assert_eq!(info.open().unwrap().views[0].name, "first");
+    assert_eq!(saved_name(), "mid-stroke");
 
-    // Changes within the interval wait; they are written once it has passed.
-    assert_eq!(AUTOSAVE_INTERVAL, Duration::from_secs(30));
-    assert!(!autosaver.maybe_save(at(5.0), true, || snapshot("too soon")));
-    assert!(!autosaver.maybe_save(at(30.9), false, || snapshot("too soon")));
-    assert!(autosaver.maybe_save(at(31.0), false, || snapshot("second")));
+    // The stroke goes on, then ends: written at once, but not sooner than the least gap
+    // after the previous write.
+    assert!(!autosaver.maybe_save(at(3.2), true, true, || snapshot("too soon")));
+    assert!(!autosaver.maybe_save(at(3.5), false, false, || snapshot("too soon")));
+    assert_eq!(autosaver.wake_in(at(3.5)), Some(Duration::from_millis(500)));
+    assert!(autosaver.maybe_save(at(4.0), false, false, || snapshot("stroke done")));
     autosaver.flush().unwrap();
-    assert_eq!(info.open().unwrap().views[0].name, "second");
-    // Nothing changed since: no write however long it waits.
-    assert!(!autosaver.maybe_save(at(500.0), false, || snapshot("never")));
-    assert_eq!(snapshots.get(), 2);
-    let recovered = info.open().unwrap();
+    assert_eq!(saved_name(), "stroke done");
+
+    // Nothing changed since: no write however long it waits, and no wake-up.
+    assert!(!autosaver.maybe_save(at(500.0), false, false, || snapshot("never")));
+    assert_eq!(autosaver.wake_in(at(500.0)), None);
+    assert!(!autosaver.has_unwritten());
+    // A finished edit long after: written at once.
+    assert!(autosaver.maybe_save(at(501.0), true, false, || snapshot("later")));
+    autosaver.flush().unwrap();
+    assert_eq!(snapshots.get(), 3);
     let mut expected = session.clone();
-    expected.views[0].name = "second".into();
-    assert_eq!(recovered, expected);
+    expected.views[0].name = "later".into();
+    assert_eq!(info.open().unwrap(), expected);
 
     autosaver.discard().unwrap();
     assert!(!recovery.exists());
-    assert_eq!(pending_recovery_at(&recovery), None);
-    // A later change is autosaved again at once: the last write was long enough ago.
-    assert!(autosaver.maybe_save(at(520.0), true, || snapshot("after")));
-    // The next one waits out the interval from that write.
-    assert!(!autosaver.maybe_save(at(531.0), true, || snapshot("too soon")));
+    assert_eq!(pending_recovery_at(&recovery).unwrap(), None);
+    // A change after a discard is written again, once the least gap has passed.
+    assert!(!autosaver.maybe_save(at(501.5), true, false, || snapshot("too soon")));
+    assert!(autosaver.maybe_save(at(502.0), false, false, || snapshot("after")));
     drop(autosaver);
-    assert_eq!(
-        pending_recovery_at(&recovery)
-            .unwrap()
-            .open()
-            .unwrap()
-            .views[0]
-            .name,
-        "after"
-    );
+    assert_eq!(saved_name(), "after");
 }
 
 #[test]
-fn a_failed_autosave_is_reported_and_retried() {
+fn a_failed_autosave_is_reported_retried_and_its_changes_kept() {
     let dir = tempfile::tempdir().unwrap();
     let session = two_view_session(&write_mesh(dir.path()));
     // The recovery file's folder is taken by a file: every write fails.
@@ -573,15 +595,119 @@ fn a_failed_autosave_is_reported_and_retried() {
     std::fs::write(&blocker, b"not a folder").unwrap();
     let mut autosaver = Autosaver::new(blocker.join("recovery.burnish"));
     let t0 = Instant::now();
-    assert!(autosaver.maybe_save(t0, true, || session.clone()));
+    assert!(autosaver.maybe_save(t0, true, false, || session.clone()));
     let err = autosaver.flush().unwrap_err().to_string();
     assert!(err.contains("data"), "{err}");
-    // The changes are still unwritten: the next due call tries again, without new edits.
+    assert!(autosaver.is_failing());
+    // The changes are still unwritten: tried again after the retry delay, without new edits.
+    assert!(autosaver.has_unwritten());
     std::fs::remove_file(&blocker).unwrap();
-    assert!(!autosaver.maybe_save(t0 + Duration::from_secs(10), false, || session.clone()));
-    assert!(autosaver.maybe_save(t0 + Duration::from_secs(30), false, || session.clone()));
+    // Not at the least gap after the failed write, but after the retry delay.
+    let wait = autosaver.wake_in(t0).expect("a retry is scheduled");
+    assert!(wait > AUTOSAVE_MIN_GAP, "{wait:?}");
+    assert!(
+        !autosaver.maybe_save(t0 + Duration::from_secs(1), false, false, || session
+            .clone())
+    );
+    let later = Instant::now() + AUTOSAVE_RETRY;
+    assert!(autosaver.maybe_save(later, false, false, || session.clone()));
     autosaver.flush().unwrap();
-    assert_eq!(pending_recovery_at(autosaver.path()).unwrap().views, 2);
+    assert!(!autosaver.is_failing());
+    let info = pending_recovery_at(autosaver.path()).unwrap().unwrap();
+    assert_eq!(info.open().unwrap(), session);
+}
+
+#[test]
+fn a_full_disk_fails_the_autosave_and_keeps_the_previous_recovery_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = two_view_session(&write_mesh(dir.path()));
+    let recovery = dir.path().join("data/recovery.burnish");
+    let mut autosaver = Autosaver::new(&recovery);
+    let t0 = Instant::now();
+    assert!(autosaver.maybe_save(t0, true, false, || session.clone()));
+    autosaver.flush().unwrap();
+    let before = std::fs::read(&recovery).unwrap();
+
+    let full = burnish::fs_atomic::simulate_full_disk(&dir.path().join("data"), 1000);
+    let mut changed = session.clone();
+    changed.views[0].paint.coverage[3] = 0.5;
+    let later = Instant::now() + AUTOSAVE_MIN_GAP;
+    assert!(autosaver.maybe_save(later, true, false, || changed.clone()));
+    let err = autosaver.flush().unwrap_err().to_string();
+    assert!(
+        err.contains("recovery.burnish") && err.contains("No space left"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&recovery).unwrap(), before);
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("data")).unwrap().count(),
+        1,
+        "no temporary file is left behind"
+    );
+    drop(full);
+    let retry = Instant::now() + AUTOSAVE_RETRY;
+    assert!(autosaver.maybe_save(retry, false, false, || changed.clone()));
+    autosaver.flush().unwrap();
+    let info = pending_recovery_at(&recovery).unwrap().unwrap();
+    assert_eq!(info.open().unwrap(), changed);
+}
+
+#[test]
+fn an_autosave_wakes_its_caller_when_it_ends() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut autosaver = Autosaver::new(dir.path().join("recovery.burnish"));
+    let (woken, wakes) = std::sync::mpsc::channel();
+    autosaver.set_waker(move || {
+        let _ = woken.send(());
+    });
+    let now = Instant::now();
+    assert!(autosaver.maybe_save(now, true, false, Session::default));
+    // While it writes, the waker will call: no polling.
+    if autosaver.is_writing() {
+        assert_eq!(autosaver.wake_in(now), None);
+    }
+    wakes
+        .recv_timeout(Duration::from_secs(60))
+        .expect("the writer wakes the caller");
+    autosaver.flush().unwrap();
+    assert!(dir.path().join("recovery.burnish").exists());
+}
+
+#[test]
+fn an_unreadable_recovery_file_is_reported_and_kept_aside() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = two_view_session(&write_mesh(dir.path()));
+    let recovery = dir.path().join("recovery.burnish");
+    let aside = dir.path().join("recovery-unreadable.burnish");
+
+    // Truncated, as a disk that lost the end of it would leave it.
+    let good = dir.path().join("good.burnish");
+    session.save(&good).unwrap();
+    let bytes = std::fs::read(&good).unwrap();
+    std::fs::write(&recovery, &bytes[..bytes.len() / 2]).unwrap();
+    let err = pending_recovery_at(&recovery).unwrap_err().to_string();
+    assert!(
+        err.contains("recovery.burnish") && err.contains("not a Burnish session file"),
+        "{err}"
+    );
+    assert!(err.contains("recovery-unreadable.burnish"), "{err}");
+    assert!(!recovery.exists());
+    assert_eq!(std::fs::read(&aside).unwrap(), &bytes[..bytes.len() / 2]);
+    assert_eq!(pending_recovery_at(&recovery).unwrap(), None);
+
+    // From a newer Burnish: refused with a message that says so.
+    rewrite_zip(&good, &recovery, |name, b| {
+        Some(if name == "session.toml" {
+            String::from_utf8(b)
+                .unwrap()
+                .replacen("format_version = 1", "format_version = 7", 1)
+                .into_bytes()
+        } else {
+            b
+        })
+    });
+    let err = pending_recovery_at(&recovery).unwrap_err().to_string();
+    assert!(err.contains("made by a newer Burnish"), "{err}");
 }
 
 #[test]
@@ -592,20 +718,73 @@ fn the_recovery_file_lives_in_burnish_data_dir() {
     unsafe { std::env::set_var("BURNISH_DATA_DIR", dir.path()) };
     let expected = dir.path().join("recovery.burnish");
     assert_eq!(recovery_path(), Some(expected.clone()));
-    assert_eq!(pending_recovery(), None);
+    assert_eq!(pending_recovery().unwrap(), None);
 
     let mut autosaver = Autosaver::at_default_location().unwrap();
     assert_eq!(autosaver.path(), expected);
     let session = Session::default();
-    assert!(autosaver.maybe_save(Instant::now(), true, || session.clone()));
+    assert!(autosaver.maybe_save(Instant::now(), true, false, || session.clone()));
     autosaver.flush().unwrap();
-    let info = pending_recovery().expect("the crash left a recovery file");
+    let info = pending_recovery()
+        .unwrap()
+        .expect("the crash left a recovery file");
     assert_eq!(
         (info.path.clone(), info.views, info.session_path.clone()),
         (expected.clone(), 1, None)
     );
     assert_eq!(info.open().unwrap(), session);
     autosaver.discard().unwrap();
-    assert_eq!(pending_recovery(), None);
+    assert_eq!(pending_recovery().unwrap(), None);
     assert!(!expected.exists());
+}
+
+#[test]
+fn a_read_only_folder_refuses_the_save_and_keeps_the_old_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = two_view_session(&write_mesh(dir.path()));
+    let folder = dir.path().join("locked");
+    std::fs::create_dir(&folder).unwrap();
+    let path = folder.join("work.burnish");
+    session.save(&path).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    let mut changed = session.clone();
+    changed.views[0].name = "Changed".into();
+
+    let (save, autosave) = read_only::with_read_only_dir(&folder, || {
+        let save = changed.save(&path).unwrap_err().to_string();
+        let mut autosaver = Autosaver::new(folder.join("recovery.burnish"));
+        assert!(autosaver.maybe_save(Instant::now(), true, false, || changed.clone()));
+        (save, autosaver.flush().unwrap_err().to_string())
+    });
+    assert!(
+        save.contains("work.burnish") && save.contains("Permission denied"),
+        "{save}"
+    );
+    assert!(
+        autosave.contains("recovery.burnish") && autosave.contains("Permission denied"),
+        "{autosave}"
+    );
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+    assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 1);
+    // Writable again: the same save goes through.
+    changed.save(&path).unwrap();
+    assert_eq!(Session::open(&path).unwrap(), changed);
+}
+
+#[test]
+fn a_session_is_read_from_bytes_as_from_its_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = two_view_session(&write_mesh(dir.path()));
+    let path = dir.path().join("s.burnish");
+    session.save(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let cache = dir.path().join("cache");
+    assert_eq!(Session::from_bytes(&bytes, &path, &cache).unwrap(), session);
+    let err = Session::from_bytes(&bytes[..100], &path, &cache)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("s.burnish") && err.contains("not a Burnish session"),
+        "{err}"
+    );
 }

@@ -204,11 +204,22 @@ impl BurnishApp {
         let Some(info) = self.recovery_offer.take() else {
             return Ok(());
         };
-        let session = info.open()?;
+        let session = match info.open() {
+            Ok(session) => session,
+            Err(e) => {
+                // Keep the offer: the file stays for another try (or a bug report).
+                self.recovery_offer = Some(info);
+                return Err(e);
+            }
+        };
         self.load_session(session)?;
         self.session_path = info.session_path.clone();
         self.touch();
-        self.notify(format!("recovered from {}", info.path.display()));
+        self.notify(format!(
+            "recovered from {}. Undo history is not kept in recovery or session files: \
+             undo starts from here.",
+            info.path.display()
+        ));
         Ok(())
     }
 

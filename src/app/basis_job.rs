@@ -55,8 +55,16 @@ impl BasisJob {
                         };
                     }
                 };
-                let cache = cache.map_or_else(BasisCache::default_location, Ok);
-                let outcome = cache.and_then(|c| c.load_or_build(&spec, false, &progress));
+                let outcome = match cache.map_or_else(BasisCache::default_location, Ok) {
+                    Ok(cache) => cache.load_or_build(&spec, false, &progress),
+                    // No folder to cache it in: painting still needs the basis.
+                    Err(e) => Ok((
+                        Arc::new(crate::basis::build_basis(&spec, &progress)),
+                        CacheOutcome::NotStored {
+                            reason: e.to_string(),
+                        },
+                    )),
+                };
                 let mut state = job_state.lock().unwrap_or_else(|e| e.into_inner());
                 match outcome {
                     Ok((basis, outcome)) => {

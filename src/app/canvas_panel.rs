@@ -45,6 +45,11 @@ impl CanvasView {
         });
     }
 
+    /// Whether a stroke is being painted (the primary button is down on the canvas).
+    pub fn is_stroking(&self) -> bool {
+        self.stroke.is_some()
+    }
+
     pub fn reset_zoom(&mut self) {
         self.zoom = None;
         self.pan = Vec2::ZERO;
@@ -341,6 +346,10 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
     ));
 }
 
+/// Paints with the frame's pointer events, in the order they came: a fast stroke brings
+/// several moves (and maybe its press and release) within one frame, and every one of them
+/// places dabs; the stroke starts where the button went down, not where a drag was first
+/// recognised.
 fn paint_input(
     app: &mut BurnishApp,
     ui: &egui::Ui,
@@ -350,67 +359,73 @@ fn paint_input(
 ) {
     let frame_start = Instant::now();
     let (events, primary_down) = ui.input(|i| (i.events.clone(), i.pointer.primary_down()));
-    for event in &events {
-        if let egui::Event::Touch { force, .. } = event {
-            app.canvas_view.pressure = *force;
-        }
-    }
-    let pressure = app.canvas_view.pressure.unwrap_or(1.0);
     let kind = app.brush.kind;
     let brush = app.brush.clone();
     let tip = app.active_tip.clone();
+    let layer = ui.layer_id();
+    let ctx = ui.ctx().clone();
+    // A press starts a stroke only on the canvas itself, not under a menu or popup over it.
+    let on_canvas = |pos: Pos2| response.rect.contains(pos) && ctx.layer_id_at(pos) == Some(layer);
+    let to_canvas = |pos: Pos2| CanvasView::to_canvas(rect, resolution, pos);
     let Some(doc) = app.views.get_mut(app.active) else {
         return;
     };
-    let to_canvas = |pos: Pos2| CanvasView::to_canvas(rect, resolution, pos);
-
-    if response.drag_started_by(egui::PointerButton::Primary)
-        || response.clicked_by(egui::PointerButton::Primary)
-    {
-        if let Some(pos) = response.interact_pointer_pos() {
-            let (x, y) = to_canvas(pos);
-            match kind {
-                BrushKind::Eyedropper => {
-                    app.brush.colour = doc.canvas.pick(x, y);
-                    return;
-                }
-                BrushKind::Fill => {
-                    doc.canvas.fill(&brush);
-                    let changes = doc.canvas.take_changes();
-                    app.publish_canvas_changes(changes, frame_start);
-                    return;
-                }
-                _ => {
-                    doc.canvas.set_tip(tip);
-                    doc.canvas.begin_stroke(&brush, x, y, pressure);
-                    app.canvas_view.stroke = Some(StrokeInput {
-                        last_time: frame_start,
-                    });
+    let view = &mut app.canvas_view;
+    let mut moved = false;
+    for event in &events {
+        let pressure = view.pressure.unwrap_or(1.0);
+        match event {
+            egui::Event::Touch { force, .. } => view.pressure = *force,
+            egui::Event::PointerButton {
+                pos,
+                button: egui::PointerButton::Primary,
+                pressed: true,
+                ..
+            } if view.stroke.is_none() && on_canvas(*pos) => {
+                let (x, y) = to_canvas(*pos);
+                match kind {
+                    BrushKind::Eyedropper => app.brush.colour = doc.canvas.pick(x, y),
+                    BrushKind::Fill => doc.canvas.fill(&brush),
+                    _ => {
+                        doc.canvas.set_tip(tip.clone());
+                        doc.canvas.begin_stroke(&brush, x, y, pressure);
+                        view.stroke = Some(StrokeInput {
+                            last_time: frame_start,
+                        });
+                    }
                 }
             }
-        }
-    } else if app.canvas_view.stroke.is_some() {
-        let mut moved = false;
-        for event in &events {
-            if let egui::Event::PointerMoved(pos) = event {
+            egui::Event::PointerMoved(pos) if view.stroke.is_some() => {
                 let (x, y) = to_canvas(*pos);
                 doc.canvas.continue_stroke(x, y, pressure);
                 moved = true;
             }
-        }
-        if let Some(stroke) = &mut app.canvas_view.stroke {
-            let dt = frame_start.duration_since(stroke.last_time).as_secs_f32();
-            stroke.last_time = frame_start;
-            if !moved && kind == BrushKind::Airbrush && primary_down {
-                doc.canvas.airbrush_tick(dt);
-                ui.ctx().request_repaint();
+            egui::Event::PointerButton {
+                pos,
+                button: egui::PointerButton::Primary,
+                pressed: false,
+                ..
+            } if view.stroke.is_some() => {
+                let (x, y) = to_canvas(*pos);
+                doc.canvas.continue_stroke(x, y, pressure);
+                doc.canvas.end_stroke();
+                view.stroke = None;
             }
+            _ => {}
         }
     }
-    let released = app.canvas_view.stroke.is_some() && !primary_down;
-    if released {
-        doc.canvas.end_stroke();
-        app.canvas_view.stroke = None;
+    if let Some(stroke) = &mut view.stroke {
+        let dt = frame_start.duration_since(stroke.last_time).as_secs_f32();
+        stroke.last_time = frame_start;
+        if !moved && kind == BrushKind::Airbrush && primary_down {
+            doc.canvas.airbrush_tick(dt);
+            ui.ctx().request_repaint();
+        }
+        // The release was lost (the window lost the pointer): the stroke ends here.
+        if !primary_down {
+            doc.canvas.end_stroke();
+            view.stroke = None;
+        }
     }
     let changes = doc.canvas.take_changes();
     app.publish_canvas_changes(changes, frame_start);

@@ -18,7 +18,7 @@ pub use basis_job::{BasisJob, BasisStatus};
 pub use document::ViewDoc;
 pub use preview_panel::{PreviewState, Reference, TableOverlays, TableSource};
 
-use crate::basis::{Basis, BasisSpec};
+use crate::basis::{Basis, BasisCache, BasisSpec};
 use crate::paint::{BrushPreset, BrushSettings, load_presets};
 use crate::scene::Scene;
 use crate::session::{Autosaver, BasisSettings, RecoveryInfo};
@@ -32,6 +32,8 @@ use std::time::Instant;
 pub struct AppConfig {
     /// A basis to use at once (tests); otherwise it is loaded or built in the background.
     pub basis: Option<Arc<Basis>>,
+    /// The folder of the basis cache; `None`: [`BasisCache::default_location`].
+    pub basis_cache: Option<PathBuf>,
     pub basis_settings: BasisSettings,
     /// Where brush presets are read from.
     pub brushes_dir: PathBuf,
@@ -39,6 +41,10 @@ pub struct AppConfig {
     pub session: Option<PathBuf>,
     /// Whether to autosave to the recovery file and offer recovery at start.
     pub autosave: bool,
+    /// The recovery file; `None`: [`crate::session::recovery_path`].
+    pub recovery_file: Option<PathBuf>,
+    /// Recover a pending recovery file at start without asking (`burnish app --recover`).
+    pub recover: bool,
     /// The first view's scene when no session is opened.
     pub scene: Scene,
 }
@@ -47,10 +53,13 @@ impl Default for AppConfig {
     fn default() -> Self {
         Self {
             basis: None,
+            basis_cache: None,
             basis_settings: BasisSettings::default(),
             brushes_dir: default_brushes_dir(),
             session: None,
             autosave: true,
+            recovery_file: None,
+            recover: false,
             scene: Scene::default(),
         }
     }
@@ -95,6 +104,8 @@ pub struct BurnishApp {
     pub basis_job: BasisJob,
     pub basis_settings: BasisSettings,
     pub basis: Option<Arc<Basis>>,
+    /// The basis cache folder asked for at start (`None`: the default location).
+    basis_cache: Option<PathBuf>,
     /// The newest snapshot the UI has taken from the worker.
     pub snapshot: Arc<Snapshot>,
     /// Observed sparse bins and inconsistent ones, mirrored from the worker's updates.
@@ -119,6 +130,8 @@ pub struct BurnishApp {
     /// The window asked to close while there were unsaved changes.
     pub confirm_close: bool,
     autosaver: Option<Autosaver>,
+    /// The last autosave failed and the user was told; cleared (and told) when one succeeds.
+    autosave_failing: bool,
     pub recovery_offer: Option<RecoveryInfo>,
     pub notices: Vec<Notice>,
     /// Stroke-to-preview latencies in ms, oldest first (bounded).
@@ -152,6 +165,12 @@ impl BurnishApp {
     /// The app, with the wgpu render state of `cc` (when the backend is wgpu) for the preview.
     pub fn new(cc: &eframe::CreationContext<'_>, config: AppConfig) -> Self {
         let mut app = Self::headless(config);
+        if let Some(saver) = app.autosaver.as_mut() {
+            // A finished autosave asks for a frame, which collects its outcome and starts the
+            // next write if changes came in meanwhile.
+            let ctx = cc.egui_ctx.clone();
+            saver.set_waker(move || ctx.request_repaint());
+        }
         app.preview_state = preview_panel::PreviewState::new(cc.wgpu_render_state.as_ref());
         if let Some(e) = app.preview_state.init_error.clone() {
             app.notify_error(format!("preview: {e}"));
@@ -166,9 +185,19 @@ impl BurnishApp {
         let spec = basis_spec(&settings);
         let basis_job = match config.basis {
             Some(basis) => BasisJob::ready(spec, basis),
-            None => BasisJob::start(spec, None),
+            None => BasisJob::start(spec, config.basis_cache.clone().map(BasisCache::at)),
         };
         let (presets, preset_errors) = load_presets(&config.brushes_dir);
+        let autosaver = config
+            .autosave
+            .then(|| match &config.recovery_file {
+                Some(path) => Some(Autosaver::new(path)),
+                None => Autosaver::at_default_location(),
+            })
+            .flatten();
+        let recovery_offer = autosaver
+            .as_ref()
+            .map(|saver| crate::session::pending_recovery_at(saver.path()));
         let mut app = Self {
             views: Vec::new(),
             active: 0,
@@ -182,6 +211,7 @@ impl BurnishApp {
             basis_job,
             basis_settings: settings,
             basis: None,
+            basis_cache: config.basis_cache.clone(),
             snapshot: Arc::new(Snapshot::default()),
             observed: HashMap::new(),
             inconsistent: HashSet::new(),
@@ -197,16 +227,9 @@ impl BurnishApp {
             dirty: false,
             changed_since_autosave: false,
             confirm_close: false,
-            autosaver: if config.autosave {
-                Autosaver::at_default_location()
-            } else {
-                None
-            },
-            recovery_offer: if config.autosave {
-                crate::session::pending_recovery()
-            } else {
-                None
-            },
+            autosaver,
+            autosave_failing: false,
+            recovery_offer: None,
             notices: Vec::new(),
             latencies_ms: Vec::new(),
             preview_state: preview_panel::PreviewState::default(),
@@ -214,6 +237,11 @@ impl BurnishApp {
         };
         for e in preset_errors {
             app.notify_error(format!("brush preset skipped: {e}"));
+        }
+        match recovery_offer {
+            Some(Ok(offer)) => app.recovery_offer = offer,
+            Some(Err(e)) => app.notify_error(e.to_string()),
+            None => {}
         }
         let opened = match config.session {
             Some(path) => app.open_session(&path).is_ok(),
@@ -225,6 +253,11 @@ impl BurnishApp {
                 let _ = app.add_view(Scene::default());
             }
             app.dirty = false;
+        }
+        // Setting up the first view is not the user's work: nothing to autosave yet.
+        app.changed_since_autosave = false;
+        if config.recover && app.recovery_offer.is_some() {
+            app.perform(Action::Recover);
         }
         app.poll_basis();
         app
@@ -371,6 +404,16 @@ impl BurnishApp {
         if let Some(basis) = self.basis_job.take_result() {
             self.basis = Some(basis.clone());
             self.worker.send(Command::SetBasis(basis));
+            if let BasisStatus::Ready {
+                outcome: crate::basis::CacheOutcome::NotStored { reason },
+                ..
+            } = self.basis_job.status()
+            {
+                self.notify(format!(
+                    "warning: the basis is used from memory but could not be cached, so the \
+                     next start builds it again: {reason}"
+                ));
+            }
         }
     }
 
@@ -413,30 +456,72 @@ impl BurnishApp {
         self.pending_actions.push(action);
     }
 
-    fn autosave(&mut self) {
-        let changed = std::mem::take(&mut self.changed_since_autosave);
-        if let Some(mut saver) = self.autosaver.take() {
-            saver.maybe_save(Instant::now(), changed, || self.to_session());
-            if let Some(e) = saver.take_error() {
-                self.notify_error(format!("autosave failed: {e}"));
-            }
-            self.autosaver = Some(saver);
+    /// Starts an autosave when one is due and asks egui for a frame when the next one will
+    /// be: an idle window draws no frames, and the write must not wait for the next input.
+    fn autosave(&mut self, ctx: &egui::Context) {
+        // While a recovery file waits for the user's answer, writing would replace it.
+        if self.recovery_offer.is_some() {
+            return;
         }
+        let Some(mut saver) = self.autosaver.take() else {
+            return;
+        };
+        let changed = std::mem::take(&mut self.changed_since_autosave);
+        let now = Instant::now();
+        saver.maybe_save(now, changed, self.canvas_view.is_stroking(), || {
+            self.to_session()
+        });
+        if let Some(e) = saver.take_error()
+            && !self.autosave_failing
+        {
+            self.autosave_failing = true;
+            self.notify_error(format!(
+                "autosave failed: {e}. The painting is kept in memory; autosave tries again \
+                 every {} s, and Save still works elsewhere.",
+                crate::session::AUTOSAVE_RETRY.as_secs()
+            ));
+        }
+        if self.autosave_failing && !saver.is_failing() && !saver.is_writing() {
+            self.autosave_failing = false;
+            self.notify(format!("autosave works again ({})", saver.path().display()));
+        }
+        if let Some(wait) = saver.wake_in(now) {
+            ctx.request_repaint_after(wait);
+        }
+        self.autosaver = Some(saver);
+    }
+
+    /// The basis cache folder asked for at start (`None`: the default location).
+    pub fn basis_cache(&self) -> Option<PathBuf> {
+        self.basis_cache.clone()
+    }
+
+    /// The recovery file autosave writes, if autosave is on.
+    pub fn recovery_file(&self) -> Option<&std::path::Path> {
+        self.autosaver.as_ref().map(|s| s.path())
+    }
+
+    /// Waits for an autosave under way (tests).
+    pub fn flush_autosave(&mut self) -> crate::Result<()> {
+        self.autosaver.as_mut().map_or(Ok(()), |s| s.flush())
     }
 
     /// After the user's own save: recovery would only repeat it.
     pub(crate) fn saved_to(&mut self, path: Option<PathBuf>) {
         if let Some(saver) = self.autosaver.as_mut() {
             saver.set_session_path(path);
-            if !self.dirty {
+            // A recovery file still waiting for the user's answer is another session's work.
+            if !self.dirty && self.recovery_offer.is_none() {
                 let _ = saver.discard();
             }
         }
     }
 
-    /// Ends cleanly: the recovery file goes.
+    /// Ends cleanly: the recovery file goes (unless it is another session's, still offered).
     pub(crate) fn discard_recovery(&mut self) {
-        if let Some(saver) = self.autosaver.as_mut() {
+        if let Some(saver) = self.autosaver.as_mut()
+            && self.recovery_offer.is_none()
+        {
             let _ = saver.discard();
         }
     }
@@ -448,7 +533,7 @@ impl eframe::App for BurnishApp {
         for action in std::mem::take(&mut self.pending_actions) {
             self.perform(action);
         }
-        self.autosave();
+        self.autosave(ctx);
         let pointer_down = ctx.input(|i| i.pointer.any_down());
         if !pointer_down && *self.basis_job.spec() != basis_spec(&self.basis_settings) {
             self.restart_basis();
@@ -484,6 +569,8 @@ impl eframe::App for BurnishApp {
             .show(ui, |ui| preview_panel::show(self, ui));
         egui::CentralPanel::default().show(ui, |ui| canvas_panel::show(self, ui));
         actions::dialogs(self, ui.ctx());
+        // The frame's strokes and actions are in: write them (or schedule the write) now.
+        self.autosave(ui.ctx());
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::widgets::light_dial;
 use super::{Action, BasisJob, BurnishApp};
-use crate::basis::BasisSpec;
+use crate::basis::{BasisCache, BasisSpec};
 use crate::scene::{BuiltinShape, Projection, Scene};
 use crate::solver::{Policy, Regularization};
 use crate::worker::Command;
@@ -319,7 +319,7 @@ impl BurnishApp {
     pub fn restart_basis(&mut self) {
         let spec = super::basis_spec(&self.basis_settings);
         if *self.basis_job.spec() != spec {
-            self.basis_job = BasisJob::start(spec, None);
+            self.basis_job = BasisJob::start(spec, self.basis_cache().map(BasisCache::at));
         }
     }
 }

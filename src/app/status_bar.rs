@@ -33,6 +33,19 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
                         .show_percentage(),
                 );
             }
+            BasisStatus::Ready {
+                components,
+                outcome: crate::basis::CacheOutcome::NotStored { reason },
+            } => {
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!("K {components} · basis ready, not cached"),
+                )
+                .on_hover_text(format!(
+                    "The basis is used from memory; it could not be cached, so the next start \
+                     builds it again: {reason}"
+                ));
+            }
             BasisStatus::Ready { components, .. } => {
                 ui.label(format!("K {components} · basis ready"));
             }

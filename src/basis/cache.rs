@@ -24,6 +24,9 @@ pub enum CacheOutcome {
     Built,
     /// A cache file existed but was stale, truncated or corrupt; rebuilt and replaced.
     Rebuilt { reason: String },
+    /// Built and used from memory only: the cache could not be written (a read-only or full
+    /// folder), so the next start builds it again. `reason` names the folder and the problem.
+    NotStored { reason: String },
 }
 
 /// The folder that holds cached bases.
@@ -106,7 +109,8 @@ impl BasisCache {
     }
 
     /// The basis for `spec`: from the cache when it is valid, else built (with progress)
-    /// and stored. A stale, truncated or corrupt file is rebuilt, never trusted.
+    /// and stored. A stale, truncated or corrupt file is rebuilt, never trusted. When the
+    /// basis can't be stored, it is still returned, with [`CacheOutcome::NotStored`].
     pub fn load_or_build(
         &self,
         spec: &BasisSpec,
@@ -125,7 +129,12 @@ impl BasisCache {
             }
         };
         let basis = build_basis(spec, progress);
-        self.store(spec, &basis)?;
+        let outcome = match self.store(spec, &basis) {
+            Ok(()) => outcome,
+            Err(e) => CacheOutcome::NotStored {
+                reason: e.to_string(),
+            },
+        };
         Ok((Arc::new(basis), outcome))
     }
 }

@@ -429,6 +429,7 @@ impl<'a> Bases<'a> {
             CacheOutcome::Loaded => "loaded".to_string(),
             CacheOutcome::Built => "built".to_string(),
             CacheOutcome::Rebuilt { reason } => format!("rebuilt ({reason})"),
+            CacheOutcome::NotStored { reason } => format!("built, not cached ({reason})"),
         };
         log(&format!(
             "basis K = {components} ({} materials): {how} in {seconds:.1} s",

@@ -22,12 +22,16 @@ pub struct AppArgs {
     /// Don't autosave to the recovery file.
     #[arg(long)]
     pub no_autosave: bool,
+    /// Reopen the recovery file a crash left, without asking.
+    #[arg(long, conflicts_with = "no_autosave")]
+    pub recover: bool,
 }
 
 pub fn run(args: &AppArgs) -> anyhow::Result<()> {
     let mut config = AppConfig {
         session: args.session.clone(),
         autosave: !args.no_autosave,
+        recover: args.recover,
         ..AppConfig::default()
     };
     if let Some(path) = &args.scene {

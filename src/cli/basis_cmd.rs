@@ -25,6 +25,11 @@ pub fn run(args: &BasisArgs) -> anyhow::Result<()> {
             elapsed.as_secs_f64() * 1e3
         ),
         CacheOutcome::Built => println!("built basis in {:.1} s", elapsed.as_secs_f64()),
+        CacheOutcome::NotStored { reason } => eprintln!(
+            "built basis in {:.1} s, but it could not be cached, so the next run builds it \
+             again: {reason}",
+            elapsed.as_secs_f64()
+        ),
         CacheOutcome::Rebuilt { reason } => {
             println!(
                 "rebuilt basis in {:.1} s (cache was not usable: {reason})",

@@ -160,6 +160,7 @@ pub(crate) fn load_basis(options: &BasisOptions) -> anyhow::Result<Arc<Basis>> {
         CacheOutcome::Loaded => "loaded from cache".to_string(),
         CacheOutcome::Built => "built".to_string(),
         CacheOutcome::Rebuilt { reason } => format!("rebuilt ({reason})"),
+        CacheOutcome::NotStored { reason } => format!("built, not cached ({reason})"),
     };
     println!(
         "basis: K = {}, {} materials, {how} in {:.0} ms",

@@ -44,17 +44,29 @@ impl TipMask {
     /// Reads a PNG tip. Colour images are reduced to luminance; transparency multiplies in, so
     /// a transparent pixel never paints. A tip with no paint at all is refused.
     pub fn load_png(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-            .map_err(|e| Error::invalid(path, format!("not a readable PNG image: {e}")))?
-            .to_luma_alpha8();
-        let (width, height) = image.dimensions();
+        // A 16-bit RGBA PNG of the largest tip, stored, with room for its chunks.
+        let limit = 8 * (MAX_TIP_SIDE as u64 + 1) * MAX_TIP_SIDE as u64 + (1 << 20);
+        let bytes = crate::bounded_read::read_at_most(path, limit, "a brush tip PNG")?;
+        Self::from_png(&bytes, path)
+    }
+
+    /// [`TipMask::load_png`] of a file's bytes; `path` names it in errors.
+    pub fn from_png(bytes: &[u8], path: &Path) -> Result<Self> {
+        let not_png =
+            |e: image::ImageError| Error::invalid(path, format!("not a readable PNG image: {e}"));
+        let reader = || {
+            image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png)
+        };
+        // The size from the header first: a huge tip is refused before it is decoded.
+        let (width, height) = reader().into_dimensions().map_err(not_png)?;
         if width > MAX_TIP_SIDE || height > MAX_TIP_SIDE {
             return Err(Error::invalid(
                 path,
                 format!("tip is {width}×{height}; at most {MAX_TIP_SIDE} pixels a side"),
             ));
         }
+        let image = reader().decode().map_err(not_png)?.to_luma_alpha8();
+        let (width, height) = image.dimensions();
         let values: Vec<u8> = image
             .pixels()
             .map(|p| ((u16::from(p[0]) * u16::from(p[1]) + 127) / 255) as u8)

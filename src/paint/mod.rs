@@ -17,7 +17,7 @@ pub use canvas::{AIRBRUSH_RATE, Canvas, CanvasError, DEFAULT_UNDO_BUDGET, MIN_CO
 pub use changes::{CanvasChanges, PixelChange, PixelRect};
 pub use dab::{MAX_TIP_SIDE, TipMask};
 pub use layers::PaintLayers;
-pub use presets::{BrushPreset, load_preset, load_presets};
+pub use presets::{BrushPreset, load_preset, load_presets, parse_preset};
 pub use settings::{
     BrushKind, BrushSettings, MAX_BRUSH_SIZE, MAX_PAINT, MAX_SPACING, MIN_BRUSH_SIZE, MIN_SPACING,
 };

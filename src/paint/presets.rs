@@ -29,8 +29,21 @@ struct PresetFile {
 /// Reads one preset file. Errors name the file and the problem: unreadable or bad TOML,
 /// unknown keys, a missing `[brush]` table, settings out of range, a tip that cannot be read.
 pub fn load_preset(path: &Path) -> Result<BrushPreset> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let file: PresetFile = toml::from_str(&text)
+    let text = crate::bounded_read::read_text_at_most(path, PRESET_LIMIT, "a brush preset")?;
+    parse_preset(&text, path, TipMask::load_png)
+}
+
+/// The most bytes a preset file may have; a real one has a few hundred.
+const PRESET_LIMIT: u64 = 1 << 20;
+
+/// [`load_preset`] of a preset's text, as if read from `path` (which names it in errors);
+/// `load_tip` reads the tip image the preset names, given its path beside the preset.
+pub fn parse_preset(
+    text: &str,
+    path: &Path,
+    load_tip: impl FnOnce(&Path) -> Result<TipMask>,
+) -> Result<BrushPreset> {
+    let file: PresetFile = toml::from_str(text)
         .map_err(|e| Error::invalid(path, format!("not a valid brush preset: {e}")))?;
     let name = file.name.trim();
     if name.is_empty() {
@@ -43,7 +56,7 @@ pub fn load_preset(path: &Path) -> Result<BrushPreset> {
         None => None,
         Some(tip) => {
             let tip_path = path.parent().unwrap_or(Path::new(".")).join(tip);
-            let mask = TipMask::load_png(&tip_path)
+            let mask = load_tip(&tip_path)
                 .map_err(|e| Error::invalid(path, format!("tip \"{tip}\": {e}")))?;
             Some(Arc::new(mask))
         }

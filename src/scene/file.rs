@@ -10,6 +10,9 @@ use std::path::{Path, PathBuf};
 /// The largest guide image side accepted: 8192² pixels already need several GiB of buffers.
 pub const MAX_RESOLUTION: u32 = 8192;
 
+/// The most bytes a scene file may have; a real one has a few hundred.
+const SCENE_FILE_LIMIT: u64 = 1 << 20;
+
 /// One object, one directional light and one camera (SCENE.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -108,7 +111,7 @@ impl Scene {
     /// Reads and checks a scene file; a relative object path is resolved against its directory.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::bounded_read::read_text_at_most(path, SCENE_FILE_LIMIT, "a scene file")?;
         Self::parse(&text, path)
     }
 

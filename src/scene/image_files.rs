@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
-use crate::image_io::{RgbImage, read_exr_rgb, write_exr_rgb};
+use crate::image_io::{RgbImage, decode_exr_rgb, write_exr_rgb};
 use image::{DynamicImage, ImageEncoder};
 use std::path::Path;
 
@@ -53,8 +53,23 @@ pub fn write_png(path: impl AsRef<Path>, image: &RgbImage) -> Result<()> {
 pub fn read_png_linear(path: impl AsRef<Path>) -> Result<RgbImage> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let decoded = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-        .map_err(|e| Error::invalid(path, format!("not a readable PNG image ({e})")))?;
+    decode_png_linear(&bytes, path, |_, _| Ok(()))
+}
+
+/// [`read_png_linear`] of a file's bytes; `path` names it in errors. `check_size` is given
+/// the width and height from the header, before any pixel is decoded, and may refuse them.
+pub fn decode_png_linear(
+    bytes: &[u8],
+    path: &Path,
+    check_size: impl FnOnce(usize, usize) -> Result<()>,
+) -> Result<RgbImage> {
+    let not_png =
+        |e: image::ImageError| Error::invalid(path, format!("not a readable PNG image ({e})"));
+    let reader =
+        || image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    let (width, height) = reader().into_dimensions().map_err(not_png)?;
+    check_size(width as usize, height as usize)?;
+    let decoded = reader().decode().map_err(not_png)?;
     let (width, height) = (decoded.width() as usize, decoded.height() as usize);
     let pixels = match decoded {
         DynamicImage::ImageLuma8(_)
@@ -94,20 +109,32 @@ pub fn write_image(path: impl AsRef<Path>, image: &RgbImage) -> Result<()> {
 /// checks that it is `resolution × resolution` pixels.
 pub fn read_painting(path: impl AsRef<Path>, resolution: usize) -> Result<RgbImage> {
     let path = path.as_ref();
-    let image = match format_of(path)? {
-        Format::Png => read_png_linear(path)?,
-        Format::Exr => read_exr_rgb(path)?,
+    // The name first: a file of no known format is not read at all.
+    format_of(path)?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_painting(&bytes, path, resolution)
+}
+
+/// [`read_painting`] of a file's bytes; `path` names it in errors and its extension gives
+/// the format. The size is checked from the header, before any pixel is decoded.
+pub fn decode_painting(bytes: &[u8], path: &Path, resolution: usize) -> Result<RgbImage> {
+    let check_size = |width: usize, height: usize| {
+        if width == resolution && height == resolution {
+            Ok(())
+        } else {
+            Err(Error::invalid(
+                path,
+                format!(
+                    "the painting is {width} × {height} pixels but the scene's guide is \
+                     {resolution} × {resolution}"
+                ),
+            ))
+        }
     };
-    if image.width != resolution || image.height != resolution {
-        return Err(Error::invalid(
-            path,
-            format!(
-                "the painting is {} × {} pixels but the scene's guide is {resolution} × {resolution}",
-                image.width, image.height
-            ),
-        ));
+    match format_of(path)? {
+        Format::Png => decode_png_linear(bytes, path, check_size),
+        Format::Exr => decode_exr_rgb(bytes, path, check_size),
     }
-    Ok(image)
 }
 
 enum Format {

@@ -84,6 +84,11 @@ impl Mesh {
     pub fn from_obj(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Self::from_obj_bytes(&bytes, path)
+    }
+
+    /// [`Mesh::from_obj`] of a file's bytes; `path` names it in errors.
+    pub fn from_obj_bytes(bytes: &[u8], path: &Path) -> Result<Self> {
         let options = tobj::LoadOptions {
             single_index: true,
             triangulate: true,
@@ -91,7 +96,7 @@ impl Mesh {
             ignore_lines: true,
         };
         let (models, _materials) =
-            tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |_| {
+            tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |_| {
                 Ok(Default::default())
             })
             .map_err(|e| Error::invalid(path, format!("not a readable OBJ file: {e}")))?;

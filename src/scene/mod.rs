@@ -27,7 +27,8 @@ pub use camera::{CameraRig, light_direction};
 pub use file::{CameraSettings, LightSettings, MAX_RESOLUTION, ObjectSource, Projection, Scene};
 pub use gbuffer::{GBuffer, SurfacePoint, tangent_frame};
 pub use image_files::{
-    read_painting, read_png_linear, srgb_decode, srgb_encode, write_image, write_png,
+    decode_painting, decode_png_linear, read_painting, read_png_linear, srgb_decode, srgb_encode,
+    write_image, write_png,
 };
 pub use mesh::Mesh;
 pub use object::{BuiltinShape, Object};

@@ -21,7 +21,7 @@ use crate::scene::{ObjectSource, Scene};
 use exr::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::fs::File;
-use std::io::{BufReader, Cursor, Read, Write};
+use std::io::{BufReader, Cursor, Read, Seek, Write};
 use std::path::{Path, PathBuf};
 use zip::ZipArchive;
 use zip::write::{SimpleFileOptions, ZipWriter};
@@ -43,6 +43,10 @@ const DEFLATE_LEVEL: i64 = 1;
 const TEXT_LIMIT: u64 = 16 << 20;
 /// The most bytes an embedded .obj may inflate to.
 const OBJECT_LIMIT: u64 = 4 << 30;
+/// The most bytes reserved for an entry before it is read: its recorded size is only a
+/// claim, and a few bytes of archive must not allocate gigabytes. Larger entries grow as
+/// their bytes actually arrive.
+const PREALLOCATION_LIMIT: u64 = 64 << 20;
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -123,6 +127,14 @@ impl Session {
     ) -> Result<Session> {
         let dir = object_cache.as_ref().to_path_buf();
         read_session(path.as_ref(), &|| Ok(dir.clone())).map(|(session, _)| session)
+    }
+
+    /// [`Session::open_with_object_cache`] of a session file's bytes; `path` names it in
+    /// errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path, object_cache: &Path) -> Result<Session> {
+        let dir = object_cache.to_path_buf();
+        let archive = ZipArchive::new(Cursor::new(bytes)).map_err(|e| not_a_session(path, e))?;
+        read_archive(path, archive, &|| Ok(dir.clone())).map(|(session, _)| session)
     }
 }
 
@@ -225,8 +237,15 @@ pub(crate) fn read_session(
     path: &Path,
     object_cache: &dyn Fn() -> Result<PathBuf>,
 ) -> Result<(Session, Option<PathBuf>)> {
+    read_archive(path, open_archive(path)?, object_cache)
+}
+
+fn read_archive<R: Read + Seek>(
+    path: &Path,
+    mut archive: ZipArchive<R>,
+    object_cache: &dyn Fn() -> Result<PathBuf>,
+) -> Result<(Session, Option<PathBuf>)> {
     let invalid = |problem: String| Error::invalid(path, problem);
-    let mut archive = open_archive(path)?;
     let manifest = read_manifest(path, &mut archive)?;
     let regularization = manifest
         .basis
@@ -298,7 +317,7 @@ pub(crate) fn read_session(
     let mut session = session;
     for (view, embedded) in session.views.iter_mut().zip(embedded_objects) {
         if let (Some(bytes), ObjectSource::Obj(original)) = (embedded, view.scene.object_source())
-            && std::fs::read(&original).ok().as_deref() != Some(&bytes[..])
+            && !holds_bytes(&original, &bytes)
         {
             let extracted = extract_object(&object_cache()?, &original, &bytes)?;
             view.scene.object = extracted.to_string_lossy().into_owned();
@@ -317,11 +336,21 @@ pub(crate) fn read_summary(path: &Path) -> Result<Summary> {
     })
 }
 
-type Archive = ZipArchive<BufReader<File>>;
+/// Whether `path` is a regular file holding exactly `bytes`. Its length is compared first,
+/// so that a path naming something other than a file the size of the copy (a device, a
+/// pipe, a huge file) is never read.
+fn holds_bytes(path: &Path, bytes: &[u8]) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == bytes.len() as u64)
+        && std::fs::read(path).is_ok_and(|b| b == bytes)
+}
 
-fn open_archive(path: &Path) -> Result<Archive> {
+fn open_archive(path: &Path) -> Result<ZipArchive<BufReader<File>>> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    ZipArchive::new(BufReader::new(file)).map_err(|e| match e {
+    ZipArchive::new(BufReader::new(file)).map_err(|e| not_a_session(path, e))
+}
+
+fn not_a_session(path: &Path, e: zip::result::ZipError) -> Error {
+    match e {
         zip::result::ZipError::Io(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
             Error::io(path, io)
         }
@@ -329,10 +358,10 @@ fn open_archive(path: &Path) -> Result<Archive> {
             path,
             format!("not a Burnish session file (not a readable zip archive: {other})"),
         ),
-    })
+    }
 }
 
-fn read_manifest(path: &Path, archive: &mut Archive) -> Result<Manifest> {
+fn read_manifest<R: Read + Seek>(path: &Path, archive: &mut ZipArchive<R>) -> Result<Manifest> {
     let text = read_text(path, archive, MANIFEST)?;
     let invalid = |problem: String| Error::invalid(path, format!("{MANIFEST}: {problem}"));
     // The version first: a newer file may have keys this build does not know.
@@ -355,13 +384,22 @@ fn read_manifest(path: &Path, archive: &mut Archive) -> Result<Manifest> {
     toml::from_str(&text).map_err(|e| invalid(e.to_string()))
 }
 
-fn read_text(path: &Path, archive: &mut Archive, name: &str) -> Result<String> {
+fn read_text<R: Read + Seek>(
+    path: &Path,
+    archive: &mut ZipArchive<R>,
+    name: &str,
+) -> Result<String> {
     let bytes = read_entry(path, archive, name, TEXT_LIMIT)?;
     String::from_utf8(bytes).map_err(|_| Error::invalid(path, format!("{name}: not UTF-8 text")))
 }
 
 /// An entry's bytes, its checksum verified; refuses entries inflating beyond `limit`.
-fn read_entry(path: &Path, archive: &mut Archive, name: &str, limit: u64) -> Result<Vec<u8>> {
+fn read_entry<R: Read + Seek>(
+    path: &Path,
+    archive: &mut ZipArchive<R>,
+    name: &str,
+    limit: u64,
+) -> Result<Vec<u8>> {
     let mut file = archive.by_name(name).map_err(|e| match e {
         zip::result::ZipError::FileNotFound => {
             Error::invalid(path, format!("the entry {name} is missing"))
@@ -377,7 +415,13 @@ fn read_entry(path: &Path, archive: &mut Archive, name: &str, limit: u64) -> Res
             ),
         ));
     }
-    let mut bytes = Vec::with_capacity(file.size() as usize);
+    // Deflate inflates at most about 1032-fold: a claim beyond that is not reserved.
+    let plausible = file
+        .compressed_size()
+        .saturating_mul(1032)
+        .saturating_add(4096);
+    let mut bytes =
+        Vec::with_capacity(file.size().min(plausible).min(PREALLOCATION_LIMIT) as usize);
     // The zip reader checks the CRC once the entry has been read to its end.
     (&mut file)
         .take(limit + 1)
@@ -461,6 +505,9 @@ fn decode_channels(
             size.height()
         ));
     }
+    for header in &meta.headers {
+        crate::image_io::check_exr_data_size(header, bytes.len())?;
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -491,6 +538,23 @@ fn decode_channels(
         .collect()
 }
 
+/// A view's painting from the bytes of its `colour.exr` and `coverage.exr` entries, checked
+/// as [`Session::open`] checks them: `side × side` pixels, finite colours, coverage in
+/// [0, 1]. The problem, naming the entry, when not.
+pub fn decode_paint_layers(
+    colour: &[u8],
+    coverage: &[u8],
+    side: usize,
+) -> std::result::Result<PaintLayers, String> {
+    let colour = decode_colour(colour, side)
+        .and_then(|c| check_colour(&c, side).map(|()| c))
+        .map_err(|problem| format!("colour.exr: {problem}"))?;
+    let coverage = decode_coverage(coverage, side)
+        .and_then(|c| check_coverage(&c, side).map(|()| c))
+        .map_err(|problem| format!("coverage.exr: {problem}"))?;
+    Ok(PaintLayers { colour, coverage })
+}
+
 fn decode_colour(bytes: &[u8], side: usize) -> std::result::Result<RgbImage, String> {
     let channels = decode_channels(bytes, side, &["R", "G", "B"])?;
     let pixels = (0..side * side)
@@ -516,7 +580,7 @@ fn extract_object(cache: &Path, original: &Path, bytes: &[u8]) -> Result<PathBuf
         .unwrap_or_else(|| PathBuf::from("object.obj"));
     let dir = cache.join(format!("{:016x}", fnv1a(bytes)));
     let target = std::path::absolute(dir.join(file_name)).map_err(|e| Error::io(&dir, e))?;
-    if std::fs::read(&target).ok().as_deref() == Some(bytes) {
+    if holds_bytes(&target, bytes) {
         return Ok(target);
     }
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;

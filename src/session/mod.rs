@@ -8,10 +8,10 @@ mod autosave;
 mod file;
 
 pub use autosave::{
-    AUTOSAVE_INTERVAL, Autosaver, RecoveryInfo, pending_recovery, pending_recovery_at,
-    recovery_path,
+    AUTOSAVE_DELAY, AUTOSAVE_MIN_GAP, AUTOSAVE_RETRY, Autosaver, RecoveryInfo, pending_recovery,
+    pending_recovery_at, recovery_path,
 };
-pub use file::{EXTENSION, FORMAT_VERSION, object_cache_dir};
+pub use file::{EXTENSION, FORMAT_VERSION, decode_paint_layers, object_cache_dir};
 
 use crate::basis::BasisSpec;
 use crate::error::Result;

@@ -2,7 +2,7 @@
 
 use super::{DIRECTIONS, DirIndex, SymTable};
 use crate::error::{Error, Result};
-use crate::image_io::{read_exr_rgb, write_exr_rgb_with};
+use crate::image_io::{decode_exr_rgb, write_exr_rgb_with};
 use std::path::Path;
 
 /// Writes the full table, pixel (x, y) = ρ(d_l = y, d_v = x); symmetric bit for bit.
@@ -19,16 +19,26 @@ pub fn write_table_exr(path: impl AsRef<Path>, table: &SymTable) -> Result<()> {
 /// reciprocal. A symmetric file, such as every one Burnish writes, reads back bit for bit.
 pub fn read_table_exr(path: impl AsRef<Path>) -> Result<SymTable> {
     let path = path.as_ref();
-    let image = read_exr_rgb(path)?;
-    if (image.width, image.height) != (DIRECTIONS, DIRECTIONS) {
-        return Err(Error::invalid(
-            path,
-            format!(
-                "a BRDF table must be {DIRECTIONS} × {DIRECTIONS} pixels, this image is {} × {}",
-                image.width, image.height
-            ),
-        ));
-    }
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_table_exr(&bytes, path)
+}
+
+/// [`read_table_exr`] of a file's bytes; `path` names it in errors.
+pub fn decode_table_exr(bytes: &[u8], path: &Path) -> Result<SymTable> {
+    // The size is checked from the header, before any pixel is decoded.
+    let image = decode_exr_rgb(bytes, path, |width, height| {
+        if (width, height) == (DIRECTIONS, DIRECTIONS) {
+            Ok(())
+        } else {
+            Err(Error::invalid(
+                path,
+                format!(
+                    "a BRDF table must be {DIRECTIONS} × {DIRECTIONS} pixels, this image is \
+                     {width} × {height}"
+                ),
+            ))
+        }
+    })?;
     if let Some(i) = image
         .pixels
         .iter()
@@ -55,7 +65,7 @@ pub fn read_table_exr(path: impl AsRef<Path>) -> Result<SymTable> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image_io::{RgbImage, write_exr_rgb};
+    use crate::image_io::{RgbImage, read_exr_rgb, write_exr_rgb};
     use crate::table::{PAIRS, pair_directions};
 
     /// A table whose pairs all differ, with values spread over many binades.

@@ -147,17 +147,40 @@ impl std::fmt::Debug for MerlBrdf {
 impl MerlBrdf {
     /// Reads a MERL binary; the dimensions must be 90, 90, 180 and the length exact.
     pub fn read(path: impl AsRef<Path>) -> Result<Self> {
+        use std::io::Read;
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+        // A file of the wrong length is refused from its header and length alone: a huge
+        // file is never read.
+        let wanted = if len == FILE_BYTES as u64 {
+            FILE_BYTES
+        } else {
+            HEADER_BYTES
+        };
+        let mut bytes = Vec::with_capacity(wanted);
+        file.take(wanted as u64)
+            .read_to_end(&mut bytes)
+            .map_err(|e| Error::io(path, e))?;
+        Self::parse(&bytes, len, path)
+    }
+
+    /// [`MerlBrdf::read`] of a file's bytes; `path` names it in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self> {
+        Self::parse(bytes, bytes.len() as u64, path)
+    }
+
+    /// `bytes`: the file's first bytes (all of it when it is no longer than a MERL file);
+    /// `len`: its length.
+    fn parse(bytes: &[u8], len: u64, path: &Path) -> Result<Self> {
         if bytes.len() < HEADER_BYTES {
             return Err(Error::invalid(
                 path,
-                format!("{} bytes is too short for a MERL BRDF header", bytes.len()),
+                format!("{len} bytes is too short for a MERL BRDF header"),
             ));
         }
-        let dims: [i32; 3] = std::array::from_fn(|i| {
-            i32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().unwrap())
-        });
+        let dims: [i32; 3] =
+            std::array::from_fn(|i| i32::from_le_bytes(std::array::from_fn(|b| bytes[4 * i + b])));
         if dims != MERL_DIMS {
             return Err(Error::invalid(
                 path,
@@ -167,23 +190,20 @@ impl MerlBrdf {
                 ),
             ));
         }
-        if bytes.len() != FILE_BYTES {
-            let why = if bytes.len() < FILE_BYTES {
-                "truncated"
-            } else {
+        if len != FILE_BYTES as u64 || bytes.len() != FILE_BYTES {
+            let why = if len > FILE_BYTES as u64 {
                 "trailing data"
+            } else {
+                "truncated"
             };
             return Err(Error::invalid(
                 path,
-                format!(
-                    "MERL file is {} bytes, expected {FILE_BYTES} ({why})",
-                    bytes.len()
-                ),
+                format!("MERL file is {len} bytes, expected {FILE_BYTES} ({why})"),
             ));
         }
         let values = bytes[HEADER_BYTES..]
             .chunks_exact(8)
-            .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+            .map(|b| f64::from_le_bytes(std::array::from_fn(|i| b[i])))
             .collect();
         Ok(Self { values })
     }

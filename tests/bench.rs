@@ -171,7 +171,11 @@ fn held_out_materials_are_outside_the_basis_database() {
         .chain(hand)
         .map(|m| m.name)
         .collect();
-    assert_eq!(names.len(), 25, "unique names");
+    assert_eq!(
+        names.len(),
+        20 + burnish::bench::held_out::HAND_BUILT,
+        "unique names"
+    );
 }
 
 /// The number after `"key": ` in a one-line JSON object.
@@ -228,6 +232,8 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
         "rel_rmse_1view_k20",
         "rel_rmse_oracle_k20",
         "rel_rmse_analytic_fit",
+        "rel_rmse_1view_ldr",
+        "median_rel_rmse_1view_ldr",
     ] {
         let value = json_number(&json, key).unwrap_or_else(|| panic!("{key} in {json}"));
         assert!(value.is_finite() && value > 0.0, "{key} = {value}");
@@ -236,9 +242,10 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
         json_number(&json, "dab_solve_ms_p50").unwrap()
             <= json_number(&json, "dab_solve_ms_p95").unwrap()
     );
-    // Sparse: paper, 2 views, LDR, max policy; plus the oracle and the analytic fit.
-    assert_eq!(report.aggregates.len(), 6, "{:?}", report.aggregates);
-    assert_eq!(report.rows.len(), 2 * 6);
+    // Sparse: paper, the global prior, 2 views, LDR, max policy; plus the oracle and the
+    // analytic fit.
+    assert_eq!(report.aggregates.len(), 7, "{:?}", report.aggregates);
+    assert_eq!(report.rows.len(), 2 * 7);
     assert_eq!(report.live.scene_skips.len(), 4);
     let stroke = &report.live.stroke;
     assert_eq!(

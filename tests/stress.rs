@@ -851,15 +851,17 @@ fn ill_conditioned_systems_give_finite_backward_stable_solutions() {
         {
             let (n, r) = session.solver.normal_equations();
             let x = &solution.coefficients;
-            let m = |i: usize, j: usize| n[i * K + j] + if i == j { lambda } else { 0.0 };
-            let m_norm = (0..K)
-                .map(|i| (0..K).map(|j| m(i, j).abs()).sum::<f64>())
+            // The localised prior solves for one coefficient set per band: D = BANDS·K rows.
+            let d = x.len();
+            let m = |i: usize, j: usize| n[i * d + j] + if i == j { lambda } else { 0.0 };
+            let m_norm = (0..d)
+                .map(|i| (0..d).map(|j| m(i, j).abs()).sum::<f64>())
                 .fold(0.0, f64::max);
             for c in 0..3 {
                 let x_norm = max_abs(x.iter().map(|row| &row[c]));
                 let r_norm = max_abs(r.iter().map(|row| &row[c]));
-                let residual = (0..K)
-                    .map(|i| ((0..K).map(|j| m(i, j) * x[j][c]).sum::<f64>() - r[i][c]).abs())
+                let residual = (0..d)
+                    .map(|i| ((0..d).map(|j| m(i, j) * x[j][c]).sum::<f64>() - r[i][c]).abs())
                     .fold(0.0, f64::max);
                 prop_assert!(
                     residual <= 1e-9 * (m_norm * x_norm + r_norm) + 1e-300,

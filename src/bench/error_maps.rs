@@ -110,12 +110,13 @@ mod tests {
     #[test]
     fn a_perfect_estimate_maps_to_white_error_and_marks_observed_bins() {
         let truth = SymTable::filled([0.2, 0.3, 0.4]);
-        let observed: HashSet<u32> = [crate::table::pair_index(0, 0) as u32].into();
+        // The bin that the top-left pixel of a panel shows.
+        let (l, v) = TableWindow::FULL.bins_at(0, 0, PANEL, PANEL);
+        let observed: HashSet<u32> = [crate::table::pair_index(l, v) as u32].into();
         let map = error_map(&truth, &truth, &observed);
         assert_eq!(map.width, 4 * PANEL + 3 * GAP);
         let error_panel = 2 * (PANEL + GAP);
         assert_eq!(map.pixels[error_panel + PANEL / 2], [1.0; 3]);
-        // Bin (0, 0) is the top-left pixel of the observed panel.
         assert_eq!(map.pixels[3 * (PANEL + GAP)], [1.0; 3]);
         let darker = SymTable::filled([0.02, 0.03, 0.04]);
         let map = error_map(&truth, &darker, &observed);

@@ -76,7 +76,7 @@ pub struct ReconstructArgs {
     pub uncertainty: Option<PathBuf>,
     #[command(flatten)]
     pub basis: BasisOptions,
-    /// Regularisation: auto (variance prior, α = 3), gcv, a number (the prior's α),
+    /// Regularisation: auto (the calibrated prior, α = 10), gcv, a number (the prior's α),
     /// prior:α or ridge:λ.
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,

@@ -14,6 +14,7 @@ pub mod basis;
 pub mod bench;
 pub mod cli;
 pub mod error;
+pub mod export;
 pub mod fs_atomic;
 pub mod image_io;
 pub mod inspect;

@@ -480,3 +480,83 @@ fn convert_chooses_formats_by_extension() {
         text(&o.stderr)
     );
 }
+
+/// `burnish reconstruct` with the given extra arguments, a small basis cached in `cache`.
+fn reconstruct(view: &str, out: &Path, cache: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["reconstruct", "--view", view, "--out", path_str(out)];
+    args.extend(["--materials", "24", "--components", "8"]);
+    args.extend(extra);
+    Command::new(env!("CARGO_BIN_EXE_burnish"))
+        .args(&args)
+        .env("BURNISH_CACHE_DIR", cache)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the binary runs")
+}
+
+#[test]
+fn reconstruct_starts_from_a_material() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cache = d.join("cache");
+    // The starting material, as a .bsdf (read back through the reader) and as a table.
+    let material = tabulate(&plastic(0.3));
+    let table = d.join("start.exr");
+    burnish::table::exr_file::write_table_exr(&table, &material).unwrap();
+    let bsdf = d.join("start.bsdf");
+    rgl::write_bsdf(&bsdf, &material, &BsdfSettings::default()).unwrap();
+    // A painting of it under one light: a single view leaves most of the table unobserved.
+    let scene = scene_file(d, 64, (45.0, 30.0));
+    let painting = d.join("paint.exr");
+    let o = burnish(&[
+        "render",
+        "--scene",
+        path_str(&scene),
+        "--brdf",
+        path_str(&table),
+        "--out",
+        path_str(&painting),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let view = format!("{}={}", scene.display(), painting.display());
+
+    let plain = d.join("plain.exr");
+    let o = reconstruct(&view, &plain, &cache, &[]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let started = d.join("started.exr");
+    let o = reconstruct(&view, &started, &cache, &["--start", path_str(&bsdf)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let stdout = text(&o.stdout);
+    assert!(
+        stdout.contains("start: ") && stdout.contains("start.bsdf"),
+        "{stdout}"
+    );
+
+    // Where the painting says nothing, the start keeps the material: closer to it overall.
+    let read = |p: &Path| burnish::table::exr_file::read_table_exr(p).unwrap();
+    let score = |p: &Path| burnish::cli::eval_cmd::evaluate(&material, &read(p));
+    let (without, with) = (score(&plain), score(&started));
+    eprintln!(
+        "without a start: {:.1} dB, {:.1}%; from the .bsdf: {:.1} dB, {:.1}%",
+        without.median_psnr_db,
+        100.0 * without.relative_rmse,
+        with.median_psnr_db,
+        100.0 * with.relative_rmse
+    );
+    assert!(with.relative_rmse < without.relative_rmse);
+    assert!(with.median_psnr_db > without.median_psnr_db);
+
+    // A starting material that cannot be read fails at once, naming the file.
+    let o = reconstruct(
+        &view,
+        &started,
+        &cache,
+        &["--start", "nowhere/missing.binary"],
+    );
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("missing.binary"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -363,6 +363,49 @@ fn mitsuba_renders_the_exported_bsdf_like_burnish() {
         }
         assert!(psnr >= 30.0, "light {light:?}: {psnr:.1} dB");
     }
+
+    // The spectral flavour (pbrt-v4's): Mitsuba's spectral variant renders it alike.
+    let spectral = dir.path().join("plastic_spectral.bsdf");
+    let o = burnish(&[
+        "convert",
+        "--in",
+        path_str(&table_path),
+        "--out",
+        path_str(&spectral),
+        "--spectral",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).contains("spectral + RGB"),
+        "{}",
+        text(&o.stdout)
+    );
+    let light = (45.0, 30.0);
+    let scene_path = scene_file(dir.path(), resolution, light);
+    let ours = dir.path().join("burnish.exr");
+    let o = burnish(&[
+        "render",
+        "--scene",
+        path_str(&scene_path),
+        "--brdf",
+        path_str(&table_path),
+        "--out",
+        path_str(&ours),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let theirs = dir.path().join("mitsuba_spectral.exr");
+    mitsuba_render(
+        &python,
+        "scalar_spectral",
+        &spectral,
+        &theirs,
+        resolution,
+        light,
+    );
+    let (a, b) = (read_exr_rgb(&ours).unwrap(), read_exr_rgb(&theirs).unwrap());
+    let psnr = sphere_psnr(&Scene::load(&scene_path).unwrap(), &a.pixels, &b.pixels);
+    eprintln!("spectral, light {light:?}: PSNR {psnr:.1} dB");
+    assert!(psnr >= 30.0, "spectral: {psnr:.1} dB");
 }
 
 #[test]

@@ -15,6 +15,7 @@ pub mod bench;
 pub mod bounded_read;
 pub mod cli;
 pub mod error;
+pub mod export;
 pub mod fs_atomic;
 pub mod image_io;
 pub mod inspect;

@@ -1147,3 +1147,92 @@ fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
         .expect("written once the disk takes it");
     assert!(info.open().unwrap().views[0].paint == painted);
 }
+
+/// File ▸ Start from a material: the material's projection onto the basis becomes the prior
+/// mean (an unpainted session shows it), it is the preview's reference, and a new session
+/// drops it; File ▸ Export writes the formats other renderers read.
+#[test]
+fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
+    use burnish::bench::oracle::OracleProjector;
+    use burnish::export::{BsdfSettings, RglBsdf, load_table, rgl};
+    let dir = tempfile::tempdir().unwrap();
+    let mut harness = open_app(config());
+    let mean = harness.state().snapshot.coefficients.clone();
+    let table = burnish::table::exr_file::read_table_exr(reference_table(dir.path())).unwrap();
+    let bsdf = dir.path().join("start.bsdf");
+    rgl::write_bsdf(&bsdf, &table, &BsdfSettings::default()).unwrap();
+
+    harness.state_mut().perform(Action::StartFrom(bsdf.clone()));
+    settle(&mut harness);
+    let app = harness.state();
+    assert!(app.notices.iter().all(|n| !n.is_error));
+    assert_eq!(app.start_material.as_deref(), Some("start.bsdf"));
+    assert_eq!(
+        app.preview_state().reference.as_ref().unwrap().name,
+        "start.bsdf"
+    );
+    let basis = app.snapshot.basis.clone().expect("the basis is ready");
+    let projection = OracleProjector::new(basis).project(&load_table(&bsdf).unwrap());
+    let distance = |a: &[[f64; 3]], b: &[[f64; 3]]| {
+        a.iter()
+            .zip(b)
+            .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).powi(2)))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let started = app.snapshot.coefficients.clone();
+    // Unpainted, the solution is the prior mean: the starting material's projection.
+    assert!(
+        distance(&started, &projection) < 1e-6 * distance(&mean, &projection),
+        "{} vs {}",
+        distance(&started, &projection),
+        distance(&mean, &projection)
+    );
+
+    // Exports for other renderers, chosen by extension; the analytic ones report their error.
+    for name in ["out.bsdf", "out.mtlx", "out.gltf"] {
+        harness
+            .state_mut()
+            .perform(Action::Export(dir.path().join(name)));
+    }
+    let app = harness.state();
+    assert!(app.notices.iter().all(|n| !n.is_error));
+    assert!(RglBsdf::read(&dir.path().join("out.bsdf")).is_ok());
+    let fits = app
+        .notices
+        .iter()
+        .filter(|n| n.text.contains("dB PSNR"))
+        .count();
+    assert_eq!(fits, 2);
+    harness
+        .state_mut()
+        .perform(Action::Export(dir.path().join("out.png")));
+    assert!(
+        harness
+            .state()
+            .notices
+            .iter()
+            .any(|n| n.is_error && n.text.contains("out.png"))
+    );
+
+    // A bad start is refused and the current one kept; a new session starts from the mean.
+    let broken = dir.path().join("broken.bsdf");
+    std::fs::write(&broken, b"tensor_file\0 but nothing more").unwrap();
+    harness.state_mut().perform(Action::StartFrom(broken));
+    assert!(
+        harness
+            .state()
+            .notices
+            .iter()
+            .any(|n| n.is_error && n.text.contains("broken.bsdf"))
+    );
+    assert_eq!(
+        harness.state().start_material.as_deref(),
+        Some("start.bsdf")
+    );
+    harness.state_mut().perform(Action::NewSession);
+    settle(&mut harness);
+    assert_eq!(harness.state().start_material, None);
+    let cleared = harness.state().snapshot.coefficients.clone();
+    assert!(distance(&cleared, &mean) < 1e-9 * (1.0 + distance(&mean, &projection)));
+}

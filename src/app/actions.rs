@@ -2,6 +2,7 @@
 //! File dialogs only supply paths; every action takes its path, so tests drive them directly.
 
 use super::{BurnishApp, ViewDoc};
+use crate::export::{ExportOptions, Format, export, load_table};
 use crate::paint::BrushKind;
 use crate::scene::{Scene, write_png};
 use crate::session::{Session, SessionView};
@@ -10,6 +11,7 @@ use crate::table::merl::MerlBrdf;
 use crate::worker::Command;
 use egui::{Key, KeyboardShortcut, Modifiers};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Something the user asked for.
@@ -22,6 +24,13 @@ pub enum Action {
     ExportGuide(PathBuf),
     ExportTable(PathBuf),
     ExportMerl(PathBuf),
+    /// The BRDF in the format the extension names (see `crate::export::Format`).
+    Export(PathBuf),
+    /// A material (EXR table, MERL binary or `.bsdf`) the painting edits: its projection
+    /// onto the basis becomes the prior mean; it is also shown as the preview's reference.
+    StartFrom(PathBuf),
+    /// Back to the database's mean material as the prior mean.
+    ClearStart,
     AddView,
     Undo,
     Redo,
@@ -53,6 +62,12 @@ impl BurnishApp {
             Action::ExportGuide(path) => self.export_guide(&path),
             Action::ExportTable(path) => self.export_table(&path, false),
             Action::ExportMerl(path) => self.export_table(&path, true),
+            Action::Export(path) => self.export_any(&path),
+            Action::StartFrom(path) => self.start_from(&path),
+            Action::ClearStart => {
+                self.clear_start();
+                Ok(())
+            }
             Action::AddView => {
                 let scene = self
                     .active_view()
@@ -150,6 +165,8 @@ impl BurnishApp {
             });
         }
         self.views = docs;
+        // A session file does not record a starting material: the session shows what it holds.
+        self.clear_start();
         self.active = session.active_view.min(self.views.len().saturating_sub(1));
         self.brush = session.brush;
         if session.basis != self.basis_settings {
@@ -277,6 +294,42 @@ impl BurnishApp {
         }
         self.notify(format!("BRDF written to {}", path.display()));
         Ok(())
+    }
+
+    /// Writes the BRDF in any export format; the notice says what the file holds (for the
+    /// analytic formats, the fit's error).
+    fn export_any(&mut self, path: &Path) -> crate::Result<()> {
+        let snapshot = self.snapshot.clone();
+        let Some(basis) = snapshot.basis.clone() else {
+            return Err(crate::Error::invalid(
+                path,
+                "the basis is not ready yet; export when the status bar says it is",
+            ));
+        };
+        let table = Reconstruction::new(basis, &snapshot.coefficients).materialize();
+        let report = export(path, &table, &ExportOptions::default())?;
+        self.notify(format!("BRDF written to {}: {report}", path.display()));
+        Ok(())
+    }
+
+    fn start_from(&mut self, path: &Path) -> crate::Result<()> {
+        let table = Arc::new(load_table(path)?);
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into(),
+        );
+        self.worker
+            .send(Command::SetStartMaterial(Some(table.clone())));
+        self.start_material = Some(name.clone());
+        self.set_reference(name.clone(), table);
+        self.notify(format!("painting from {name}"));
+        Ok(())
+    }
+
+    fn clear_start(&mut self) {
+        if self.start_material.take().is_some() {
+            self.worker.send(Command::SetStartMaterial(None));
+        }
     }
 }
 
@@ -407,12 +460,36 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
             if ui.button("Export BRDF as MERL binary…").clicked() {
                 pick_save(app, "Export MERL BRDF", "binary", Action::ExportMerl);
             }
+            ui.menu_button("Export BRDF for other renderers", |ui| {
+                for format in [Format::RglBsdf, Format::MaterialX, Format::Gltf] {
+                    let label = format!("{} (.{})…", format.label(), format.extension());
+                    if ui.button(label).clicked() {
+                        pick_save(app, format.label(), format.extension(), Action::Export);
+                    }
+                }
+            });
             ui.separator();
+            let readable = Format::readable_extensions();
+            if ui.button("Start from a material…").clicked() {
+                pick_open(
+                    app,
+                    "Start from a material (EXR table, MERL binary or .bsdf)",
+                    &readable,
+                    Action::StartFrom,
+                );
+            }
+            if let Some(name) = app.start_material.clone()
+                && ui
+                    .button(format!("Clear starting material ({name})"))
+                    .clicked()
+            {
+                app.queue(Action::ClearStart);
+            }
             if ui.button("Load reference material…").clicked() {
                 pick_open(
                     app,
-                    "Load reference material (EXR table or MERL binary)",
-                    &["exr", "binary"],
+                    "Load reference material (EXR table, MERL binary or .bsdf)",
+                    &readable,
                     Action::LoadReference,
                 );
             }

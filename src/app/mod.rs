@@ -138,6 +138,8 @@ pub struct BurnishApp {
     pub latencies_ms: Vec<f64>,
     preview_state: preview_panel::PreviewState,
     pending_actions: Vec<Action>,
+    /// The name of the material the painting starts from (the worker holds the table).
+    pub start_material: Option<String>,
 }
 
 /// The basis the settings ask for: the default database at its size, K components.
@@ -234,6 +236,7 @@ impl BurnishApp {
             latencies_ms: Vec::new(),
             preview_state: preview_panel::PreviewState::default(),
             pending_actions: Vec::new(),
+            start_material: None,
         };
         for e in preset_errors {
             app.notify_error(format!("brush preset skipped: {e}"));

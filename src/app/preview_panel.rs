@@ -310,36 +310,27 @@ impl PreviewState {
 }
 
 impl BurnishApp {
-    /// Loads a reference material to compare with: an EXR table (TABLE.md) or a MERL binary
-    /// (`.binary`), chosen by the extension.
+    /// Loads a reference material to compare with: an EXR table (TABLE.md), a MERL binary
+    /// (`.binary`) or an RGL `.bsdf`, chosen by the extension.
     pub fn load_reference(&mut self, path: &Path) -> crate::Result<()> {
-        let is_merl = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("binary"));
-        let table = if is_merl {
-            let merl = crate::table::merl::MerlBrdf::read(path)?;
-            crate::materials::tabulate(&merl)
-        } else {
-            crate::table::exr_file::read_table_exr(path)?
-        };
-        if !table.is_physical() {
-            return Err(crate::Error::invalid(
-                path,
-                "the table has values that are negative or not finite",
-            ));
-        }
+        let table = crate::export::load_table(path)?;
         let name = path.file_name().map_or_else(
             || path.display().to_string(),
             |n| n.to_string_lossy().into(),
         );
+        self.set_reference(name, Arc::new(table));
+        Ok(())
+    }
+
+    /// Shows `table` as the preview's reference material.
+    pub fn set_reference(&mut self, name: String, table: Arc<SymTable>) {
         self.preview_state.reference = Some(Reference {
             name: name.clone(),
-            table: Arc::new(table),
+            table,
         });
         self.preview_state.lobe = None;
         self.preview_state.table = None;
         self.notify(format!("reference material {name} loaded"));
-        Ok(())
     }
 
     /// Lights the preview with an equirectangular OpenEXR image instead of the bundled studio.

@@ -4,6 +4,7 @@
 mod app_cmd;
 mod basis_cmd;
 pub mod bench_cmd;
+pub mod convert_cmd;
 pub mod eval_cmd;
 mod reconstruct_cmd;
 mod scene_cmds;
@@ -36,6 +37,8 @@ pub enum Command {
     Suggest(suggest_cmd::SuggestArgs),
     /// Score an estimated table against the truth.
     Eval(eval_cmd::EvalArgs),
+    /// Convert a material between formats: EXR table, MERL, .bsdf, MaterialX, glTF.
+    Convert(convert_cmd::ConvertArgs),
     /// Build (or load from the cache) the PCA basis of the material database.
     Basis(basis_cmd::BasisArgs),
     /// Open the painting app (what `burnish` with no verb does).
@@ -54,6 +57,7 @@ pub fn run() -> ExitCode {
         Some(Command::Reconstruct(args)) => reconstruct_cmd::run(&args),
         Some(Command::Suggest(args)) => suggest_cmd::run(&args),
         Some(Command::Eval(args)) => eval_cmd::run(&args),
+        Some(Command::Convert(args)) => convert_cmd::run(&args),
         Some(Command::Basis(args)) => basis_cmd::run(&args),
         #[cfg(feature = "app")]
         Some(Command::App(args)) => app_cmd::run(&args),

@@ -38,7 +38,7 @@ pub struct SuggestArgs {
 pub fn run(args: &SuggestArgs) -> anyhow::Result<()> {
     let painted = read_views(&args.views, Policy::Mean)?;
     let basis = load_basis(&args.basis)?;
-    let solver = solve_views(basis, args.lambda, &painted);
+    let solver = solve_views(basis, args.lambda, None, &painted);
     let base = painted
         .scenes
         .last()

@@ -10,8 +10,10 @@
 //! moving its light or swapping the basis re-derives the samples without asking the canvas.
 
 use crate::basis::Basis;
+use crate::bench::oracle::OracleProjector;
 use crate::scene::{GBuffer, sample_pixel};
 use crate::solver::{BinChange, Policy, Regularization, SampleKey, Solver, SparseTable};
+use crate::table::SymTable;
 use arc_swap::ArcSwap;
 use crossbeam_channel::{Receiver, Sender, TryRecvError, unbounded};
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -63,6 +65,9 @@ pub enum Command {
     SetRegularization(Regularization),
     /// A (new) basis is ready; until the first one arrives, samples accumulate unsolved.
     SetBasis(Arc<Basis>),
+    /// The material the painting starts from (its projection onto each installed basis is
+    /// the prior mean), or `None` for the database's mean material.
+    SetStartMaterial(Option<Arc<SymTable>>),
     /// Answers with the version of the snapshot that includes every command sent before it.
     Sync(Sender<u64>),
 }
@@ -201,6 +206,8 @@ struct WorkerState {
     updates_out: Sender<Vec<BinUpdate>>,
     last_stats: SolveStats,
     last_coefficients: Arc<Vec<[f64; 3]>>,
+    /// Kept as a table so that a later basis gets its own projection.
+    start_material: Option<Arc<SymTable>>,
 }
 
 impl WorkerState {
@@ -222,6 +229,7 @@ impl WorkerState {
             updates_out,
             last_stats: SolveStats::default(),
             last_coefficients: Arc::new(Vec::new()),
+            start_material: None,
         }
     }
 
@@ -263,6 +271,18 @@ impl WorkerState {
                         self.regularization = regularization;
                         if let Some(solver) = &mut self.solver {
                             solver.set_regularization(regularization);
+                        }
+                        resolve = true;
+                    }
+                    Command::SetStartMaterial(material) => {
+                        self.start_material = material;
+                        if let Some(solver) = &mut self.solver {
+                            let basis = solver.basis().clone();
+                            let mean = self
+                                .start_material
+                                .as_deref()
+                                .map(|t| OracleProjector::new(basis).project(t));
+                            solver.set_prior_mean(mean);
                         }
                         resolve = true;
                     }
@@ -321,6 +341,7 @@ impl WorkerState {
             Command::Pixels { .. }
             | Command::Sync(_)
             | Command::SetBasis(_)
+            | Command::SetStartMaterial(_)
             | Command::SetRegularization(_) => {
                 unreachable!("handled in the batch loop")
             }
@@ -382,7 +403,10 @@ impl WorkerState {
     }
 
     fn install_basis(&mut self, basis: Arc<Basis>) {
-        let mut solver = Solver::new(basis, self.regularization);
+        let mut solver = Solver::new(basis.clone(), self.regularization);
+        if let Some(material) = &self.start_material {
+            solver.set_prior_mean(Some(OracleProjector::new(basis).project(material)));
+        }
         let existing: Vec<BinChange> = self
             .sparse
             .observed_bounded()

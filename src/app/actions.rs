@@ -20,6 +20,10 @@ pub enum Action {
     SaveSession(PathBuf),
     ImportPainting(PathBuf),
     ExportGuide(PathBuf),
+    /// The active view's painting as the canvas shows it (EXR: linear, HDR; PNG: sRGB), and
+    /// next to it [`painting_mask_path`] saying which pixels were painted, for
+    /// `burnish reconstruct --unpainted … --mask`.
+    ExportPainting(PathBuf),
     ExportTable(PathBuf),
     ExportMerl(PathBuf),
     AddView,
@@ -51,6 +55,7 @@ impl BurnishApp {
             Action::SaveSession(path) => self.save_session(&path),
             Action::ImportPainting(path) => self.import_painting(&path),
             Action::ExportGuide(path) => self.export_guide(&path),
+            Action::ExportPainting(path) => self.export_painting(&path),
             Action::ExportTable(path) => self.export_table(&path, false),
             Action::ExportMerl(path) => self.export_table(&path, true),
             Action::AddView => {
@@ -110,6 +115,7 @@ impl BurnishApp {
                     scene: v.scene.clone(),
                     muted: v.muted,
                     paint: v.canvas.layers().clone(),
+                    unpainted: v.unpainted,
                 })
                 .collect(),
             active_view: self.active,
@@ -129,6 +135,8 @@ impl BurnishApp {
                 view.scene,
                 view.paint,
                 view.muted,
+                view.unpainted,
+                None,
             )?);
         }
         for old in self.views.drain(..) {
@@ -146,7 +154,7 @@ impl BurnishApp {
             });
             self.worker.send(Command::ReplacePaint {
                 view: doc.id,
-                painted: doc.painted_pixels(),
+                painted: doc.counted_pixels(),
             });
         }
         self.views = docs;
@@ -170,6 +178,7 @@ impl BurnishApp {
                 scene: view.scene.clone(),
                 muted: false,
                 paint: view.canvas.layers().clone(),
+                unpainted: view.unpainted,
             }],
             active_view: 0,
             brush: self.brush.clone(),
@@ -244,7 +253,7 @@ impl BurnishApp {
         doc.import_painting(&image)?;
         self.worker.send(Command::ReplacePaint {
             view: doc.id,
-            painted: doc.painted_pixels(),
+            painted: doc.counted_pixels(),
         });
         self.canvas_view.invalidate();
         self.touch();
@@ -256,8 +265,35 @@ impl BurnishApp {
         let Some(doc) = self.active_view() else {
             return Ok(());
         };
-        write_png(path, doc.canvas.guide())?;
+        write_png(path, &doc.guide)?;
         self.notify(format!("guide written to {}", path.display()));
+        Ok(())
+    }
+
+    /// Writes the active view's painting and its coverage mask (see
+    /// [`Action::ExportPainting`]).
+    pub fn export_painting(&mut self, path: &Path) -> crate::Result<()> {
+        let Some(doc) = self.active_view() else {
+            return Ok(());
+        };
+        let layers = doc.canvas.layers();
+        let mask = crate::image_io::RgbImage {
+            width: layers.colour.width,
+            height: layers.colour.height,
+            pixels: layers
+                .coverage
+                .iter()
+                .map(|&c| if c > 0.0 { [1.0; 3] } else { [0.0; 3] })
+                .collect(),
+        };
+        let mask_path = painting_mask_path(path);
+        crate::scene::write_image(path, &layers.colour)?;
+        write_png(&mask_path, &mask)?;
+        self.notify(format!(
+            "painting written to {} and what was painted to {}",
+            path.display(),
+            mask_path.display()
+        ));
         Ok(())
     }
 
@@ -278,6 +314,16 @@ impl BurnishApp {
         self.notify(format!("BRDF written to {}", path.display()));
         Ok(())
     }
+}
+
+/// Where [`Action::ExportPainting`] writes the mask of painted pixels for a painting at
+/// `painting`: `NAME-mask.png` beside it (white: painted).
+pub fn painting_mask_path(painting: &Path) -> PathBuf {
+    let stem = painting
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    painting.with_file_name(format!("{stem}-mask.png"))
 }
 
 /// Keyboard shortcuts that work wherever the focus is.
@@ -385,6 +431,12 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
             ui.separator();
             if ui.button("Export guide PNG…").clicked() {
                 pick_save(app, "Export guide", "png", Action::ExportGuide);
+            }
+            if ui
+                .button("Export painting and mask (EXR or PNG)…")
+                .clicked()
+            {
+                pick_save(app, "Export painting", "exr", Action::ExportPainting);
             }
             if ui.button("Import painting (PNG or EXR)…").clicked() {
                 pick_open(

@@ -13,7 +13,7 @@ mod side_panel;
 mod status_bar;
 mod widgets;
 
-pub use actions::Action;
+pub use actions::{Action, painting_mask_path};
 pub use basis_job::{BasisJob, BasisStatus};
 pub use document::ViewDoc;
 pub use preview_panel::{PreviewState, Reference, TableOverlays, TableSource};
@@ -300,6 +300,11 @@ impl BurnishApp {
             view: id,
             gbuffer: doc.gbuffer.clone(),
         });
+        // Under "count as shown" an unpainted canvas already says what its base shows.
+        self.worker.send(Command::ReplacePaint {
+            view: id,
+            painted: doc.counted_pixels(),
+        });
         self.views.push(doc);
         self.active = self.views.len() - 1;
         self.canvas_view.invalidate();
@@ -330,6 +335,23 @@ impl BurnishApp {
         }
     }
 
+    /// Sets what the unpainted pixels of the view at `index` say; the worker re-derives its
+    /// samples.
+    pub fn set_unpainted(&mut self, index: usize, rule: crate::paint::UnpaintedPixels) {
+        let Some(doc) = self.views.get_mut(index) else {
+            return;
+        };
+        if doc.unpainted == rule {
+            return;
+        }
+        doc.unpainted = rule;
+        self.worker.send(Command::ReplacePaint {
+            view: doc.id,
+            painted: doc.counted_pixels(),
+        });
+        self.touch();
+    }
+
     /// Applies a changed scene to the view at `index`.
     pub fn set_scene(&mut self, index: usize, scene: Scene) -> crate::Result<()> {
         let Some(doc) = self.views.get_mut(index) else {
@@ -342,7 +364,7 @@ impl BurnishApp {
         });
         self.worker.send(Command::ReplacePaint {
             view: doc.id,
-            painted: doc.painted_pixels(),
+            painted: doc.counted_pixels(),
         });
         self.canvas_view.invalidate();
         self.touch();
@@ -362,13 +384,15 @@ impl BurnishApp {
             return;
         };
         self.canvas_view.mark_dirty(changes.dirty);
+        // The worker hears what each pixel says under the view's rule: an unpainted pixel
+        // that counts as shown states the base under it.
         let edits = changes
             .pixels
             .iter()
             .map(|c| crate::worker::PixelEdit {
                 pixel: c.pixel,
-                before: c.before,
-                after: c.after,
+                before: doc.statement(c.pixel, c.before),
+                after: doc.statement(c.pixel, c.after),
             })
             .collect();
         self.worker.send(Command::Pixels {

@@ -2,8 +2,9 @@
 //!
 //! - `session.toml`: `format_version`, `active_view` (from 0), an optional `session_path`
 //!   (recovery files only: the user's own file), `[brush]`, `[basis]` and one `[[views]]`
-//!   table per view with its `name`, `muted` flag and `base_dir` (the folder its scene's
-//!   relative object path resolves against).
+//!   table per view with its `name`, `muted` flag, `base_dir` (the folder its scene's
+//!   relative object path resolves against) and `unpainted` (`count` or `ignore`: what its
+//!   unpainted pixels say; files written before it existed meant `ignore`).
 //! - `views/N/scene.toml`: the view's scene, a SCENE.md file; its `object` is kept as given.
 //! - `views/N/colour.exr`: the colour layer, R, G and B as 32-bit floats (linear, HDR).
 //! - `views/N/coverage.exr`: the coverage layer, one 32-bit float channel `Y`.
@@ -16,7 +17,7 @@ use super::{BasisSettings, Session, SessionView, check_colour, check_coverage};
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
 use crate::image_io::RgbImage;
-use crate::paint::{BrushSettings, PaintLayers};
+use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
 use crate::scene::{ObjectSource, Scene};
 use exr::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -77,6 +78,9 @@ struct ViewManifest {
     name: String,
     muted: bool,
     base_dir: String,
+    /// Absent in files written before the rule existed, when only painted pixels counted.
+    #[serde(default)]
+    unpainted: Option<String>,
 }
 
 /// What a session file's manifest says, without reading its images.
@@ -165,6 +169,7 @@ pub(crate) fn write_session(
                 name: v.name.clone(),
                 muted: v.muted,
                 base_dir: v.scene.base_dir.to_string_lossy().into_owned(),
+                unpainted: Some(v.unpainted.name().to_string()),
             })
             .collect(),
     };
@@ -282,6 +287,13 @@ fn read_archive<R: Read + Seek>(
             .and_then(|coverage| check_coverage(&coverage, side).map(|()| coverage))
             .map_err(|problem| invalid(format!("{coverage_entry}: {problem}")))?;
 
+        let unpainted = match &view.unpainted {
+            None => UnpaintedPixels::Ignore,
+            Some(name) => name
+                .parse()
+                .map_err(|e| invalid(format!("{MANIFEST}: views[{i}].unpainted: {e}")))?,
+        };
+
         embedded_objects.push(match scene.object_source() {
             ObjectSource::Obj(_) => Some(read_entry(
                 path,
@@ -296,6 +308,7 @@ fn read_archive<R: Read + Seek>(
             scene,
             muted: view.muted,
             paint: PaintLayers { colour, coverage },
+            unpainted,
         });
     }
     let session = Session {

@@ -16,7 +16,7 @@ pub use file::{EXTENSION, FORMAT_VERSION, decode_paint_layers, object_cache_dir}
 use crate::basis::BasisSpec;
 use crate::error::Result;
 use crate::materials::database::DatabaseSpec;
-use crate::paint::{BrushSettings, PaintLayers};
+use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
 use crate::scene::{GBuffer, Object, Scene, guide_image};
 use crate::solver::{Policy, Regularization};
 
@@ -40,6 +40,8 @@ pub struct SessionView {
     pub muted: bool,
     /// `scene.resolution²` pixels.
     pub paint: PaintLayers,
+    /// What the pixels the artist did not paint say.
+    pub unpainted: UnpaintedPixels,
 }
 
 /// How the painting becomes a table: which basis, and how the solver treats the samples.
@@ -76,6 +78,7 @@ impl SessionView {
             scene,
             muted: false,
             paint: PaintLayers::unpainted(&guide),
+            unpainted: UnpaintedPixels::default(),
         })
     }
 }

@@ -40,9 +40,19 @@ fn open_app(config: AppConfig) -> Harness<'static, BurnishApp> {
     harness
 }
 
-/// Lets the worker finish and the UI draw what it published.
+/// Lets the worker finish (and a new view get its prediction) and the UI draw what it
+/// published.
 fn settle(harness: &mut Harness<'static, BurnishApp>) {
     harness.run_steps(2);
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while harness.state().predictions_pending() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no prediction arrived"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        harness.step();
+    }
     harness
         .state()
         .worker
@@ -1328,4 +1338,142 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         eprintln!("{rule}: worst relative difference app vs CLI {worst:e}");
         assert!(worst < 1e-4, "{rule}: app and CLI tables differ by {worst}");
     }
+}
+
+/// Issue 14, workflow 2: fill the object with a base colour, paint a highlight, add a view.
+/// The new view proposes another light–view angle, and its canvas shows the current BRDF
+/// rendered for it (the guide stays a reference layer); a correction painted there moves
+/// the BRDF toward it where painted and leaves view 1 within tolerance.
+#[test]
+fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() {
+    use burnish::app::Base;
+    use burnish::scene::render_table;
+    use burnish::solver::Reconstruction;
+    let mut harness = open_app(config());
+    {
+        let app = harness.state_mut();
+        app.brush.kind = burnish::paint::BrushKind::Fill;
+        app.brush.colour = [0.30, 0.16, 0.09];
+        app.brush.opacity = 1.0;
+    }
+    let centre = canvas_point(&harness, (0.5, 0.5));
+    click_at(&mut harness, centre);
+    settle(&mut harness);
+    let (u, v) = highlight_point(harness.state(), 0);
+    {
+        let app = harness.state_mut();
+        app.brush.kind = burnish::paint::BrushKind::Round;
+        app.brush.colour = [2.5, 2.4, 2.2];
+        app.brush.size = 16.0;
+        app.brush.flow = 1.0;
+    }
+    stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
+    let table = |app: &BurnishApp| {
+        Reconstruction::new(
+            app.snapshot.basis.clone().unwrap(),
+            &app.snapshot.coefficients,
+        )
+        .materialize()
+    };
+    let before = table(harness.state());
+    let view1_before = render_table(&harness.state().views[0].gbuffer, &before);
+
+    harness.state_mut().perform(Action::AddView);
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while harness.state().views[1].base() != Base::Prediction {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no prediction arrived"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+        harness.step();
+    }
+    settle(&mut harness);
+    let app = harness.state();
+    let angle = |scene: &Scene| {
+        let camera = burnish::scene::CameraRig::new(scene).toward_camera;
+        burnish::scene::light_direction(&scene.light)
+            .dot(camera)
+            .acos()
+            .to_degrees()
+    };
+    let (a1, a2) = (angle(&app.views[0].scene), angle(&app.views[1].scene));
+    assert!(
+        (a1 - a2).abs() > 20.0,
+        "the new view has another light–view angle ({a1:.0}° vs {a2:.0}°)"
+    );
+    // Its canvas is the BRDF rendered for it, where the guide would be grey.
+    let doc = &app.views[1];
+    let expected = render_table(&doc.gbuffer, &before);
+    let shown = &doc.canvas.layers().colour;
+    let worst = shown
+        .pixels
+        .iter()
+        .zip(&expected.pixels)
+        .flat_map(|(s, e)| (0..3).map(move |k| (s[k] - e[k]).abs() / (1e-3 + e[k])))
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 1e-4,
+        "the canvas shows the prediction (off by {worst})"
+    );
+    assert!(
+        shown != &doc.guide,
+        "the prediction is not the guide (the guide stays as a reference layer)"
+    );
+    let lit = doc.counted_pixels().len();
+    assert!(
+        lit > 5_000,
+        "every object pixel states the prediction ({lit})"
+    );
+
+    // A correction on the new view: its highlight painted much dimmer.
+    let (u2, v2) = highlight_point(app, 1);
+    let n = doc.gbuffer.resolution();
+    let at = |(u, v): (f32, f32)| (v * n as f32) as usize * n + (u * n as f32) as usize;
+    let predicted = shown.pixels[at((u2, v2))];
+    let correction = predicted.map(|c| c * 0.3);
+    harness.state_mut().brush.colour = correction;
+    stroke(&mut harness, (u2 - 0.04, v2), (u2 + 0.04, v2));
+    let app = harness.state();
+    let after = table(app);
+    let doc = &app.views[1];
+    let corrected: Vec<usize> = (0..n * n)
+        .filter(|&i| doc.canvas.layers().coverage[i] > 0.99)
+        .collect();
+    assert!(
+        corrected.len() > 100,
+        "{} pixels corrected",
+        corrected.len()
+    );
+    let error = |table: &burnish::table::SymTable| {
+        let render = render_table(&doc.gbuffer, table);
+        corrected
+            .iter()
+            .map(|&i| (render.pixels[i][1] - doc.canvas.layers().colour.pixels[i][1]).abs() as f64)
+            .sum::<f64>()
+            / corrected.len() as f64
+    };
+    let (error_before, error_after) = (error(&before), error(&after));
+    assert!(
+        error_after < 0.7 * error_before,
+        "the BRDF moves toward the correction ({error_before:.4} → {error_after:.4})"
+    );
+    let view1_after = render_table(&app.views[0].gbuffer, &after);
+    let mut changes: Vec<f32> = view1_before
+        .pixels
+        .iter()
+        .zip(&view1_after.pixels)
+        .filter(|(b, _)| b[1] > 1e-3)
+        .map(|(b, a)| (a[1] - b[1]).abs() / b[1])
+        .collect();
+    changes.sort_by(f32::total_cmp);
+    let median = changes[changes.len() / 2];
+    let p90 = changes[changes.len() * 9 / 10];
+    eprintln!(
+        "correction error {error_before:.4} → {error_after:.4}; view 1 change median {median:.4}, 90th percentile {p90:.4}"
+    );
+    assert!(
+        median < 0.02 && p90 < 0.1,
+        "view 1 stays within tolerance (median {median}, 90th percentile {p90})"
+    );
 }

@@ -27,6 +27,8 @@ pub enum Action {
     ExportTable(PathBuf),
     ExportMerl(PathBuf),
     AddView,
+    /// Put a render of the current BRDF under the active view's paint.
+    StartFromCurrentBrdf,
     Undo,
     Redo,
     Recover,
@@ -59,11 +61,17 @@ impl BurnishApp {
             Action::ExportTable(path) => self.export_table(&path, false),
             Action::ExportMerl(path) => self.export_table(&path, true),
             Action::AddView => {
-                let scene = self
-                    .active_view()
-                    .map(|v| v.scene.clone())
-                    .unwrap_or_default();
+                // A light and camera that differ from the existing views', not a copy.
+                let existing: Vec<Scene> = self.views.iter().map(|v| v.scene.clone()).collect();
+                let scene = match self.active_view() {
+                    Some(active) => super::document::propose_view(&active.scene, &existing),
+                    None => Scene::default(),
+                };
                 self.add_view(scene)
+            }
+            Action::StartFromCurrentBrdf => {
+                self.start_from_current_brdf(self.active);
+                Ok(())
             }
             Action::Undo => {
                 self.undo_redo(true);
@@ -116,6 +124,7 @@ impl BurnishApp {
                     muted: v.muted,
                     paint: v.canvas.layers().clone(),
                     unpainted: v.unpainted,
+                    base: v.prediction().cloned(),
                 })
                 .collect(),
             active_view: self.active,
@@ -136,7 +145,7 @@ impl BurnishApp {
                 view.paint,
                 view.muted,
                 view.unpainted,
-                None,
+                view.base,
             )?);
         }
         for old in self.views.drain(..) {
@@ -179,6 +188,7 @@ impl BurnishApp {
                 muted: false,
                 paint: view.canvas.layers().clone(),
                 unpainted: view.unpainted,
+                base: None,
             }],
             active_view: 0,
             brush: self.brush.clone(),

@@ -189,3 +189,38 @@ pub fn object_mask(gbuffer: &GBuffer) -> Vec<bool> {
 fn paint_error(view: &str, e: crate::paint::CanvasError) -> crate::Error {
     crate::Error::invalid(std::path::Path::new(view), format!("painting: {e}"))
 }
+
+/// Light–view angles a proposed view may have: narrower shows little new, wider leaves most
+/// of the object in shadow.
+const PROPOSED_ANGLE_DEG: std::ops::RangeInclusive<f64> = 20.0..=100.0;
+
+/// The angle between the light and the camera of `scene`, in degrees.
+fn light_view_angle_deg(scene: &Scene) -> f64 {
+    let toward_camera = crate::scene::CameraRig::new(scene).toward_camera;
+    let light = crate::scene::light_direction(&scene.light);
+    light
+        .dot(toward_camera)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
+}
+
+/// A view to add after `existing` (at least one): among the next-view candidates around
+/// `base`, the one whose light–view angle is farthest from every existing view's, so the new
+/// canvas reaches other bins instead of repeating view 1's.
+pub fn propose_view(base: &Scene, existing: &[Scene]) -> Scene {
+    let angles: Vec<f64> = existing.iter().map(light_view_angle_deg).collect();
+    crate::next_view::candidate_scenes(base, 48)
+        .into_iter()
+        .map(|scene| {
+            let angle = light_view_angle_deg(&scene);
+            let distance = angles
+                .iter()
+                .map(|a| (a - angle).abs())
+                .fold(f64::INFINITY, f64::min);
+            (scene, angle, distance)
+        })
+        .filter(|(_, angle, _)| PROPOSED_ANGLE_DEG.contains(angle))
+        .max_by(|a, b| a.2.total_cmp(&b.2))
+        .map_or_else(|| base.clone(), |(scene, _, _)| scene)
+}

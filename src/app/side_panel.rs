@@ -80,6 +80,24 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
         if rule != doc.unpainted {
             app.set_unpainted(app.active, rule);
         }
+        ui.horizontal(|ui| {
+            if ui
+                .button("Start from the current BRDF")
+                .on_hover_text(
+                    "Show the current reconstruction, rendered for this view, wherever \
+                     nothing is painted: correct what is wrong instead of repainting",
+                )
+                .clicked()
+            {
+                app.queue(Action::StartFromCurrentBrdf);
+            }
+        });
+        ui.add(
+            egui::Slider::new(&mut app.guide_opacity, 0.0..=1.0)
+                .text("guide over canvas")
+                .fixed_decimals(2),
+        )
+        .on_hover_text("The grey guide as a reference layer over the canvas (display only)");
     }
     if let Some(i) = select {
         app.active = i;

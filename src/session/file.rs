@@ -8,6 +8,9 @@
 //! - `views/N/scene.toml`: the view's scene, a SCENE.md file; its `object` is kept as given.
 //! - `views/N/colour.exr`: the colour layer, R, G and B as 32-bit floats (linear, HDR).
 //! - `views/N/coverage.exr`: the coverage layer, one 32-bit float channel `Y`.
+//! - `views/N/base.exr` (optional): what the canvas shows under the paint when it is a
+//!   prediction of the BRDF rather than the scene's guide, as `colour.exr`. Unpainted pixels
+//!   that count as shown state it, so it is kept to give the same samples on opening.
 //! - `views/N/object.obj`: for a scene with an .obj object, a copy of that file's bytes, so
 //!   the session opens on a machine without the original. On opening, the original path is
 //!   used where it holds these very bytes; otherwise the copy is extracted to
@@ -207,6 +210,12 @@ pub(crate) fn write_session(
                     encode_coverage(&view.paint.coverage, view.scene.resolution as usize),
                 ),
             ]
+            .into_iter()
+            .chain(
+                view.base
+                    .as_ref()
+                    .map(|base| (entry(i, "base.exr"), encode_colour(base))),
+            )
         })
         .map(|(name, bytes)| {
             bytes
@@ -287,6 +296,17 @@ fn read_archive<R: Read + Seek>(
             .and_then(|coverage| check_coverage(&coverage, side).map(|()| coverage))
             .map_err(|problem| invalid(format!("{coverage_entry}: {problem}")))?;
 
+        let base_entry = entry(i, "base.exr");
+        let base = if archive.index_for_name(&base_entry).is_some() {
+            let bytes = read_entry(path, &mut archive, &base_entry, exr_limit(side, 3))?;
+            Some(
+                decode_colour(&bytes, side)
+                    .and_then(|base| check_colour(&base, side).map(|()| base))
+                    .map_err(|problem| invalid(format!("{base_entry}: {problem}")))?,
+            )
+        } else {
+            None
+        };
         let unpainted = match &view.unpainted {
             None => UnpaintedPixels::Ignore,
             Some(name) => name
@@ -309,6 +329,7 @@ fn read_archive<R: Read + Seek>(
             muted: view.muted,
             paint: PaintLayers { colour, coverage },
             unpainted,
+            base,
         });
     }
     let session = Session {

@@ -42,6 +42,9 @@ pub struct SessionView {
     pub paint: PaintLayers,
     /// What the pixels the artist did not paint say.
     pub unpainted: UnpaintedPixels,
+    /// What the canvas shows under the paint when it is a prediction of the BRDF (`None`:
+    /// the scene's guide), `scene.resolution²` pixels.
+    pub base: Option<crate::image_io::RgbImage>,
 }
 
 /// How the painting becomes a table: which basis, and how the solver treats the samples.
@@ -79,6 +82,7 @@ impl SessionView {
             muted: false,
             paint: PaintLayers::unpainted(&guide),
             unpainted: UnpaintedPixels::default(),
+            base: None,
         })
     }
 }
@@ -127,6 +131,9 @@ impl SessionView {
         self.scene.check()?;
         let side = self.scene.resolution as usize;
         check_colour(&self.paint.colour, side)?;
+        if let Some(base) = &self.base {
+            check_colour(base, side).map_err(|p| format!("the prediction under the paint: {p}"))?;
+        }
         check_coverage(&self.paint.coverage, side)
     }
 }

@@ -7,6 +7,7 @@ mod common;
 
 use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab};
 use burnish::inspect::LobeScale;
+use burnish::paint::UnpaintedPixels;
 use burnish::preview::{EnvironmentLight, PreviewObject};
 use burnish::scene::Scene;
 use egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
@@ -39,9 +40,19 @@ fn open_app(config: AppConfig) -> Harness<'static, BurnishApp> {
     harness
 }
 
-/// Lets the worker finish and the UI draw what it published.
+/// Lets the worker finish (and a new view get its prediction) and the UI draw what it
+/// published.
 fn settle(harness: &mut Harness<'static, BurnishApp>) {
     harness.run_steps(2);
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while harness.state().predictions_pending() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no prediction arrived"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        harness.step();
+    }
     harness
         .state()
         .worker
@@ -117,7 +128,9 @@ fn differing(a: &[[u8; 4]], b: &[[u8; 4]]) -> usize {
 fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
     let mut harness = open_app(config());
     let before = harness.state().snapshot.clone();
-    assert_eq!(before.stats.samples, 0, "a fresh session has no samples");
+    // The fresh canvas counts as shown: the guide's pixels are samples of grey diffuse.
+    let guide_samples = before.stats.samples;
+    assert!(guide_samples > 10_000, "{guide_samples} guide samples");
     assert!(before.basis.is_some(), "the given basis is installed");
     let preview_before = preview_pixels(&mut harness);
 
@@ -162,6 +175,7 @@ fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
 fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
     let mut harness = open_app(config());
     let original = harness.state().views[0].canvas.layers().clone();
+    let guide_samples = harness.state().snapshot.stats.samples;
     harness.state_mut().brush.colour = [2.5, 2.0, 1.5];
     stroke(&mut harness, (0.2, 0.5), (0.8, 0.5));
     let painted = harness.state().views[0].canvas.layers().clone();
@@ -187,8 +201,8 @@ fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
     );
     assert_eq!(
         harness.state().snapshot.stats.samples,
-        0,
-        "and the samples leave the table"
+        guide_samples,
+        "and the painted samples give way to the guide's again"
     );
 
     harness.key_press_modifiers(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
@@ -410,6 +424,7 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
     let dir = tempfile::tempdir().unwrap();
     let mut harness = open_app(config());
     let original = harness.state().views[0].canvas.layers().clone();
+    let guide_samples = harness.state().snapshot.stats.samples;
     // The exported guide, brightened in an "external editor", comes back as a painting.
     let guide_path = dir.path().join("guide.png");
     harness
@@ -450,7 +465,7 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         harness.state().views[0].canvas.layers() == &original,
         "undo takes the import back"
     );
-    assert_eq!(harness.state().snapshot.stats.samples, 0);
+    assert_eq!(harness.state().snapshot.stats.samples, guide_samples);
     harness.key_press_modifiers(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
     settle(&mut harness);
     assert!(harness.state().views[0].canvas.layers() == &imported);
@@ -902,6 +917,7 @@ fn a_refused_save_says_why_and_keeps_the_painting() {
 
     // Saving works again once the disk does; the undo history survives the save.
     let mut harness = open_app(config());
+    let guide_samples = harness.state().snapshot.stats.samples;
     stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
     let painted = harness.state().views[0].canvas.layers().clone();
     harness
@@ -915,7 +931,7 @@ fn a_refused_save_says_why_and_keeps_the_painting() {
     assert!(harness.state().views[0].canvas.layers() != &painted);
     assert_eq!(
         harness.state().snapshot.stats.samples,
-        0,
+        guide_samples,
         "undo after a save"
     );
 }
@@ -1181,12 +1197,24 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
             .sqrt()
     };
     let started = app.snapshot.coefficients.clone();
-    // Unpainted, the solution is the prior mean: the starting material's projection.
+    // The canvas now shows the material (unpainted pixels count as shown) and the prior's
+    // mean is its projection: the solution sits at the projection, far from the guide's.
+    let view = &app.views[0];
+    let render = burnish::scene::render_table(&view.gbuffer, &load_table(&bsdf).unwrap());
     assert!(
-        distance(&started, &projection) < 1e-6 * distance(&mean, &projection),
+        view.prediction() == Some(&render),
+        "the canvas shows the material"
+    );
+    // The localised prior has one coefficient set per band; each starts at the projection.
+    let k = projection.len();
+    let tiled: Vec<[f64; 3]> = (0..started.len() / k)
+        .flat_map(|_| projection.iter().copied())
+        .collect();
+    assert!(
+        distance(&started, &tiled) < 0.25 * distance(&mean, &tiled),
         "{} vs {}",
-        distance(&started, &projection),
-        distance(&mean, &projection)
+        distance(&started, &tiled),
+        distance(&mean, &tiled)
     );
 
     // Exports for other renderers, chosen by extension; the analytic ones report their error.
@@ -1235,4 +1263,318 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     assert_eq!(harness.state().start_material, None);
     let cleared = harness.state().snapshot.coefficients.clone();
     assert!(distance(&cleared, &mean) < 1e-9 * (1.0 + distance(&mean, &projection)));
+}
+
+/// Where view `index`'s mirror highlight sits on its canvas (fractions of the side): the lit
+/// object pixel whose local half vector is closest to its normal.
+fn highlight_point(app: &BurnishApp, index: usize) -> (f32, f32) {
+    let gbuffer = &app.views[index].gbuffer;
+    let n = gbuffer.resolution();
+    let best = (0..n * n)
+        .filter_map(|i| {
+            gbuffer
+                .at(i)
+                .filter(|p| p.light_bin.is_some() && p.view_bin.is_some())
+                .map(|p| (i, (p.light + p.view).normalize().z))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("a lit object")
+        .0;
+    (
+        ((best % n) as f32 + 0.5) / n as f32,
+        ((best / n) as f32 + 0.5) / n as f32,
+    )
+}
+
+/// Preview pixels that moved by more than 6/255 in some channel, and how many of them lie
+/// away from the highlight: farther than a sixth of the preview's width from where the
+/// preview changed most.
+fn moved_pixels(a: &[[u8; 4]], b: &[[u8; 4]], width: usize) -> (usize, usize) {
+    let change = |i: usize| {
+        (0..3)
+            .map(|c| a[i][c].abs_diff(b[i][c]) as u32)
+            .max()
+            .unwrap()
+    };
+    let moved: Vec<usize> = (0..a.len().min(b.len()))
+        .filter(|&i| change(i) > 6)
+        .collect();
+    let Some(&peak) = moved.iter().max_by_key(|&&i| change(i)) else {
+        return (0, 0);
+    };
+    let (px, py) = ((peak % width) as f32, (peak / width) as f32);
+    let reach = width as f32 / 6.0;
+    let away = moved
+        .iter()
+        .filter(|&&i| {
+            let (x, y) = ((i % width) as f32, (i / width) as f32);
+            (x - px).hypot(y - py) > reach
+        })
+        .count();
+    (moved.len(), away)
+}
+
+/// A short bright stroke over the highlight of a fresh sphere; the preview's pixels that
+/// moved visibly.
+/// Returns (moved, moved away from the highlight, preview pixels).
+fn highlight_stroke_moves(rule: UnpaintedPixels) -> (usize, usize, usize) {
+    let mut harness = open_app(config());
+    harness.state_mut().set_unpainted(0, rule);
+    settle(&mut harness);
+    let before = preview_pixels(&mut harness);
+    let (u, v) = highlight_point(harness.state(), 0);
+    {
+        let app = harness.state_mut();
+        app.brush.kind = burnish::paint::BrushKind::Round;
+        app.brush.colour = [3.0, 3.0, 3.0];
+        app.brush.size = 16.0;
+        app.brush.opacity = 1.0;
+        app.brush.flow = 1.0;
+    }
+    stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
+    let after = preview_pixels(&mut harness);
+    let rect = harness.state().preview_rect().unwrap();
+    let width = (rect.max.x as u32 - rect.min.x as u32) as usize;
+    let (moved, away) = moved_pixels(&before, &after, width);
+    (moved, away, before.len())
+}
+
+/// Issue 14, workflow 1: with "count as shown" (the default) the unpainted guide is a
+/// statement (grey diffuse), so a highlight stroke changes the material only around the
+/// highlight's lobe and the rest of the preview keeps the guide's material; with "ignore"
+/// the same stroke is all the solver knows and the whole preview changes.
+#[test]
+fn a_highlight_stroke_changes_the_preview_only_around_the_highlight_when_unpainted_pixels_count() {
+    let (counted, counted_away, total) = highlight_stroke_moves(UnpaintedPixels::CountAsShown);
+    let (ignored, ignored_away, _) = highlight_stroke_moves(UnpaintedPixels::Ignore);
+    eprintln!(
+        "of {total} preview pixels, moved (away from the highlight): count as shown \
+         {counted} ({counted_away}), ignore {ignored} ({ignored_away})"
+    );
+    assert!(counted > 0, "the stroke shows in the preview");
+    assert!(
+        counted * 12 < total && counted_away * 50 < total,
+        "count as shown: {counted} preview pixels moved, {counted_away} away from the highlight"
+    );
+    assert!(
+        ignored_away > 10 * counted_away.max(1),
+        "ignore extrapolates the stroke over the material ({ignored_away} vs {counted_away})"
+    );
+}
+
+/// Issue 14, workflow 3: a painting made in the app, exported with its mask, reconstructs on
+/// the command line to the table the app shows, under either rule for unpainted pixels.
+#[test]
+fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let mut harness = open_app(AppConfig {
+        basis: None,
+        basis_cache: Some(cache.clone()),
+        basis_settings: burnish::session::BasisSettings {
+            components: 8,
+            materials: 24,
+            ..Default::default()
+        },
+        ..config()
+    });
+    let deadline = std::time::Instant::now() + Duration::from_secs(300);
+    while harness.state().basis.is_none() {
+        assert!(std::time::Instant::now() < deadline, "no basis");
+        std::thread::sleep(Duration::from_millis(100));
+        harness.step();
+    }
+    settle(&mut harness);
+    harness.state_mut().brush.colour = [1.6, 1.1, 0.7];
+    stroke(&mut harness, (0.3, 0.4), (0.7, 0.5));
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, harness.state().views[0].scene.to_toml()).unwrap();
+    let painting = dir.path().join("painting.exr");
+    for rule in [UnpaintedPixels::CountAsShown, UnpaintedPixels::Ignore] {
+        harness.state_mut().set_unpainted(0, rule);
+        settle(&mut harness);
+        let app_table = dir.path().join(format!("app-{rule}.exr"));
+        let cli_table = dir.path().join(format!("cli-{rule}.exr"));
+        harness
+            .state_mut()
+            .perform(Action::ExportPainting(painting.clone()));
+        harness
+            .state_mut()
+            .perform(Action::ExportTable(app_table.clone()));
+        assert!(
+            error_texts(&harness).is_empty(),
+            "{:?}",
+            error_texts(&harness)
+        );
+        let mask = burnish::app::painting_mask_path(&painting);
+        let view = format!("{}={}", scene.display(), painting.display());
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_burnish"))
+            .args(["reconstruct", "--view", &view, "--out"])
+            .arg(&cli_table)
+            .args(["--components", "8", "--materials", "24", "--unpainted"])
+            .arg(rule.name())
+            .arg("--mask")
+            .arg(&mask)
+            .env("BURNISH_CACHE_DIR", &cache)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        assert!(
+            output.status.success(),
+            "{stdout}\n{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(
+            stdout.contains("loaded from cache"),
+            "the app's basis: {stdout}"
+        );
+        let a = burnish::table::exr_file::read_table_exr(&app_table).unwrap();
+        let c = burnish::table::exr_file::read_table_exr(&cli_table).unwrap();
+        let worst = a
+            .pairs()
+            .iter()
+            .zip(c.pairs())
+            .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs() / (1e-3 + y[k].abs())))
+            .fold(0.0f32, f32::max);
+        eprintln!("{rule}: worst relative difference app vs CLI {worst:e}");
+        assert!(worst < 1e-4, "{rule}: app and CLI tables differ by {worst}");
+    }
+}
+
+/// Issue 14, workflow 2: fill the object with a base colour, paint a highlight, add a view.
+/// The new view proposes another light–view angle, and its canvas shows the current BRDF
+/// rendered for it (the guide stays a reference layer); a correction painted there moves
+/// the BRDF toward it where painted and leaves view 1 within tolerance.
+#[test]
+fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() {
+    use burnish::app::Base;
+    use burnish::scene::render_table;
+    use burnish::solver::Reconstruction;
+    let mut harness = open_app(config());
+    {
+        let app = harness.state_mut();
+        app.brush.kind = burnish::paint::BrushKind::Fill;
+        app.brush.colour = [0.30, 0.16, 0.09];
+        app.brush.opacity = 1.0;
+    }
+    let centre = canvas_point(&harness, (0.5, 0.5));
+    click_at(&mut harness, centre);
+    settle(&mut harness);
+    let (u, v) = highlight_point(harness.state(), 0);
+    {
+        let app = harness.state_mut();
+        app.brush.kind = burnish::paint::BrushKind::Round;
+        app.brush.colour = [2.5, 2.4, 2.2];
+        app.brush.size = 16.0;
+        app.brush.flow = 1.0;
+    }
+    stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
+    let table = |app: &BurnishApp| {
+        Reconstruction::new(
+            app.snapshot.basis.clone().unwrap(),
+            &app.snapshot.coefficients,
+        )
+        .materialize()
+    };
+    let before = table(harness.state());
+    let view1_before = render_table(&harness.state().views[0].gbuffer, &before);
+
+    harness.state_mut().perform(Action::AddView);
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while harness.state().views[1].base() != Base::Prediction {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no prediction arrived"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+        harness.step();
+    }
+    settle(&mut harness);
+    let app = harness.state();
+    let angle = |scene: &Scene| {
+        let camera = burnish::scene::CameraRig::new(scene).toward_camera;
+        burnish::scene::light_direction(&scene.light)
+            .dot(camera)
+            .acos()
+            .to_degrees()
+    };
+    let (a1, a2) = (angle(&app.views[0].scene), angle(&app.views[1].scene));
+    assert!(
+        (a1 - a2).abs() > 20.0,
+        "the new view has another light–view angle ({a1:.0}° vs {a2:.0}°)"
+    );
+    // Its canvas is the BRDF rendered for it, where the guide would be grey.
+    let doc = &app.views[1];
+    let expected = render_table(&doc.gbuffer, &before);
+    let shown = &doc.canvas.layers().colour;
+    let worst = shown
+        .pixels
+        .iter()
+        .zip(&expected.pixels)
+        .flat_map(|(s, e)| (0..3).map(move |k| (s[k] - e[k]).abs() / (1e-3 + e[k])))
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 1e-4,
+        "the canvas shows the prediction (off by {worst})"
+    );
+    assert!(
+        shown != &doc.guide,
+        "the prediction is not the guide (the guide stays as a reference layer)"
+    );
+    let lit = doc.counted_pixels().len();
+    assert!(
+        lit > 5_000,
+        "every object pixel states the prediction ({lit})"
+    );
+
+    // A correction on the new view: its highlight painted much dimmer.
+    let (u2, v2) = highlight_point(app, 1);
+    let n = doc.gbuffer.resolution();
+    let at = |(u, v): (f32, f32)| (v * n as f32) as usize * n + (u * n as f32) as usize;
+    let predicted = shown.pixels[at((u2, v2))];
+    let correction = predicted.map(|c| c * 0.3);
+    harness.state_mut().brush.colour = correction;
+    stroke(&mut harness, (u2 - 0.04, v2), (u2 + 0.04, v2));
+    let app = harness.state();
+    let after = table(app);
+    let doc = &app.views[1];
+    let corrected: Vec<usize> = (0..n * n)
+        .filter(|&i| doc.canvas.layers().coverage[i] > 0.99)
+        .collect();
+    assert!(
+        corrected.len() > 100,
+        "{} pixels corrected",
+        corrected.len()
+    );
+    let error = |table: &burnish::table::SymTable| {
+        let render = render_table(&doc.gbuffer, table);
+        corrected
+            .iter()
+            .map(|&i| (render.pixels[i][1] - doc.canvas.layers().colour.pixels[i][1]).abs() as f64)
+            .sum::<f64>()
+            / corrected.len() as f64
+    };
+    let (error_before, error_after) = (error(&before), error(&after));
+    assert!(
+        error_after < 0.7 * error_before,
+        "the BRDF moves toward the correction ({error_before:.4} → {error_after:.4})"
+    );
+    let view1_after = render_table(&app.views[0].gbuffer, &after);
+    let mut changes: Vec<f32> = view1_before
+        .pixels
+        .iter()
+        .zip(&view1_after.pixels)
+        .filter(|(b, _)| b[1] > 1e-3)
+        .map(|(b, a)| (a[1] - b[1]).abs() / b[1])
+        .collect();
+    changes.sort_by(f32::total_cmp);
+    let median = changes[changes.len() / 2];
+    let p90 = changes[changes.len() * 9 / 10];
+    eprintln!(
+        "correction error {error_before:.4} → {error_after:.4}; view 1 change median {median:.4}, 90th percentile {p90:.4}"
+    );
+    assert!(
+        median < 0.02 && p90 < 0.1,
+        "view 1 stays within tolerance (median {median}, 90th percentile {p90})"
+    );
 }

@@ -131,7 +131,7 @@ fn assert_invariants(canvas: &Canvas) {
         if v == 0.0 {
             assert_eq!(
                 layers.colour.pixels[i].map(f32::to_bits),
-                canvas.guide().pixels[i].map(f32::to_bits),
+                canvas.base().pixels[i].map(f32::to_bits),
                 "unpainted pixel {i} is not the guide"
             );
         }
@@ -295,7 +295,7 @@ fn a_full_strength_eraser_restores_the_guide_bit_for_bit() {
     stroke(&mut canvas, &strong, &[(cx, cy)]);
     let v = canvas.layers().coverage[centre];
     assert!((v - 0.01).abs() < 1e-6, "{v}");
-    let expected = [2.0, 1.0, 0.5].map(|c: f32| c * 0.01 + canvas.guide().pixels[centre][0] * 0.99);
+    let expected = [2.0, 1.0, 0.5].map(|c: f32| c * 0.01 + canvas.base().pixels[centre][0] * 0.99);
     for (got, want) in canvas.layers().colour.pixels[centre].iter().zip(expected) {
         assert!((got - want).abs() < 1e-5, "{got} vs {want}");
     }
@@ -303,7 +303,7 @@ fn a_full_strength_eraser_restores_the_guide_bit_for_bit() {
     assert_eq!(canvas.layers().coverage[centre], 0.0);
     assert_eq!(
         canvas.layers().colour.pixels[centre].map(f32::to_bits),
-        canvas.guide().pixels[centre].map(f32::to_bits)
+        canvas.base().pixels[centre].map(f32::to_bits)
     );
     assert_invariants(&canvas);
 }
@@ -477,7 +477,7 @@ fn opacity_caps_what_one_stroke_does_however_often_it_passes() {
         v <= 0.4 + 1e-6 && v > 0.399,
         "one stroke reached coverage {v}"
     );
-    let guide = canvas.guide().pixels[centre];
+    let guide = canvas.base().pixels[centre];
     for k in 0..3 {
         let want = guide[k] * (1.0 - v) + colour[k] * v;
         assert!((canvas.layers().colour.pixels[centre][k] - want).abs() < 1e-5);
@@ -642,7 +642,7 @@ fn fill_covers_exactly_the_object_in_one_undo_step() {
     assert_eq!(canvas.undo_steps(), 1);
     let undone = canvas.undo().unwrap();
     assert_eq!(undone.pixels.len(), object.len());
-    assert_eq!(canvas.layers(), &PaintLayers::unpainted(canvas.guide()));
+    assert_eq!(canvas.layers(), &PaintLayers::unpainted(canvas.base()));
     // At opacity 0.5 over paint the fill mixes.
     canvas.fill(&brush(BrushKind::Fill, 1.0, 1.0, [1.0; 3]));
     canvas.fill(&BrushSettings {
@@ -678,11 +678,11 @@ fn the_eyedropper_returns_painted_hdr_colours() {
     // Unpainted places give the guide; off the canvas the nearest pixel.
     let (gx, gy) = (cx - r * 0.7, cy);
     let guide_pixel = gy as usize * n + gx as usize;
-    assert_eq!(canvas.pick(gx, gy), canvas.guide().pixels[guide_pixel]);
-    assert_eq!(canvas.pick(-5.0, 1e9), canvas.guide().pixels[(n - 1) * n]);
+    assert_eq!(canvas.pick(gx, gy), canvas.base().pixels[guide_pixel]);
+    assert_eq!(canvas.pick(-5.0, 1e9), canvas.base().pixels[(n - 1) * n]);
     // Averages mix painted and unpainted object pixels, and skip the background.
     let edge = canvas.pick_average(cx + 15.0, cy, 3.0);
-    assert!(edge[0] > canvas.guide().pixels[guide_pixel][0] && edge[0] < 4.0);
+    assert!(edge[0] > canvas.base().pixels[guide_pixel][0] && edge[0] < 4.0);
     // Picking is not painting.
     canvas.begin_stroke(
         &brush(BrushKind::Eyedropper, 5.0, 1.0, [0.0; 3]),
@@ -823,7 +823,7 @@ fn lighten_and_darken_scale_the_colour_and_mark_it_painted() {
     let n = canvas.resolution();
     let (cx, cy, _) = object_disc(&canvas);
     let i = cy as usize * n + cx as usize;
-    let guide = canvas.guide().pixels[i];
+    let guide = canvas.base().pixels[i];
     stroke(
         &mut canvas,
         &brush(BrushKind::Lighten, 20.0, 1.0, [0.0; 3]),

@@ -273,3 +273,105 @@ fn views_mute_move_and_close() {
     .len();
     assert_eq!(closed.stats.samples, samples_a);
 }
+
+/// The analysis thread: a prediction is the snapshot's BRDF rendered for the geometry asked
+/// about, the uncertainty has one finite non-negative deviation per pair and is smaller
+/// where the view observes, ranked views come best first; without a basis each request is
+/// answered as such.
+#[test]
+fn analyses_answer_from_the_state_when_asked() {
+    use burnish::worker::{Analysis, AnalysisKind};
+    let (scene, gbuffer) = view(30.0);
+    let paint = painting(&gbuffer);
+    let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    let wait = || {
+        worker
+            .wait_analysis(Duration::from_secs(120))
+            .expect("the analysis thread answers")
+    };
+    worker.send(Command::Predict {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    match wait() {
+        Analysis::NoBasis { what } => assert_eq!(what, AnalysisKind::Prediction { view: 0 }),
+        other => panic!("without a basis: {other:?}"),
+    }
+
+    let basis = common::small_basis(8);
+    worker.send(Command::SetBasis(basis.clone()));
+    worker.send(Command::SetView {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    worker.send(Command::ReplacePaint {
+        view: 0,
+        painted: paint.clone(),
+    });
+    worker.send(Command::Predict {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    worker.send(Command::EstimateUncertainty);
+    let object = Arc::new(Object::load(&scene.object_source()).unwrap());
+    worker.send(Command::RankViews {
+        request: 7,
+        base: Box::new(scene.clone()),
+        object,
+        candidates: 6,
+    });
+    let snapshot = sync(&worker);
+    let table = burnish::solver::Reconstruction::new(basis, &snapshot.coefficients).materialize();
+    let (mut predicted, mut uncertain, mut ranked) = (false, false, false);
+    for _ in 0..3 {
+        match wait() {
+            Analysis::Prediction {
+                view,
+                version,
+                image,
+                ..
+            } => {
+                assert_eq!((view, version), (0, snapshot.version));
+                assert!(image == burnish::scene::render_table(&gbuffer, &table));
+                predicted = true;
+            }
+            Analysis::Uncertainty { version, std_dev } => {
+                assert_eq!(version, snapshot.version);
+                assert_eq!(std_dev.len(), burnish::table::PAIRS);
+                assert!(std_dev.iter().all(|s| s.is_finite() && *s >= 0.0));
+                let mut observed = Vec::new();
+                let mut unobserved = Vec::new();
+                let seen: std::collections::HashSet<usize> = paint
+                    .iter()
+                    .filter_map(|&(pixel, _)| {
+                        let p = gbuffer.at(pixel as usize)?;
+                        Some(burnish::table::pair_index(p.light_bin?, p.view_bin?))
+                    })
+                    .collect();
+                for (i, s) in std_dev.iter().enumerate() {
+                    if seen.contains(&i) {
+                        observed.push(*s as f64);
+                    } else {
+                        unobserved.push(*s as f64);
+                    }
+                }
+                let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+                assert!(
+                    mean(&observed) < mean(&unobserved),
+                    "observed pairs are less uncertain ({} vs {})",
+                    mean(&observed),
+                    mean(&unobserved)
+                );
+                uncertain = true;
+            }
+            Analysis::RankedViews { request, views, .. } => {
+                assert_eq!(request, 7);
+                assert_eq!(views.len(), 6);
+                assert!(views.windows(2).all(|w| w[0].score >= w[1].score));
+                ranked = true;
+            }
+            other => panic!("with a basis: {other:?}"),
+        }
+    }
+    assert!(predicted && uncertain && ranked);
+}

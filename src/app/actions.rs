@@ -4,7 +4,7 @@
 use super::{BurnishApp, ViewDoc};
 use crate::export::{ExportOptions, Format, export, load_table};
 use crate::paint::BrushKind;
-use crate::scene::{Scene, write_png};
+use crate::scene::{Scene, render_table, write_png};
 use crate::session::{Session, SessionView};
 use crate::solver::Reconstruction;
 use crate::table::merl::MerlBrdf;
@@ -22,6 +22,10 @@ pub enum Action {
     SaveSession(PathBuf),
     ImportPainting(PathBuf),
     ExportGuide(PathBuf),
+    /// The active view's painting as the canvas shows it (EXR: linear, HDR; PNG: sRGB), and
+    /// next to it [`painting_mask_path`] saying which pixels were painted, for
+    /// `burnish reconstruct --unpainted … --mask`.
+    ExportPainting(PathBuf),
     ExportTable(PathBuf),
     ExportMerl(PathBuf),
     /// The BRDF in the format the extension names (see `crate::export::Format`).
@@ -32,6 +36,8 @@ pub enum Action {
     /// Back to the database's mean material as the prior mean.
     ClearStart,
     AddView,
+    /// Put a render of the current BRDF under the active view's paint.
+    StartFromCurrentBrdf,
     Undo,
     Redo,
     Recover,
@@ -60,6 +66,7 @@ impl BurnishApp {
             Action::SaveSession(path) => self.save_session(&path),
             Action::ImportPainting(path) => self.import_painting(&path),
             Action::ExportGuide(path) => self.export_guide(&path),
+            Action::ExportPainting(path) => self.export_painting(&path),
             Action::ExportTable(path) => self.export_table(&path, false),
             Action::ExportMerl(path) => self.export_table(&path, true),
             Action::Export(path) => self.export_any(&path),
@@ -69,11 +76,17 @@ impl BurnishApp {
                 Ok(())
             }
             Action::AddView => {
-                let scene = self
-                    .active_view()
-                    .map(|v| v.scene.clone())
-                    .unwrap_or_default();
+                // A light and camera that differ from the existing views', not a copy.
+                let existing: Vec<Scene> = self.views.iter().map(|v| v.scene.clone()).collect();
+                let scene = match self.active_view() {
+                    Some(active) => super::document::propose_view(&active.scene, &existing),
+                    None => Scene::default(),
+                };
                 self.add_view(scene)
+            }
+            Action::StartFromCurrentBrdf => {
+                self.start_from_current_brdf(self.active);
+                Ok(())
             }
             Action::Undo => {
                 self.undo_redo(true);
@@ -125,6 +138,8 @@ impl BurnishApp {
                     scene: v.scene.clone(),
                     muted: v.muted,
                     paint: v.canvas.layers().clone(),
+                    unpainted: v.unpainted,
+                    base: v.prediction().cloned(),
                 })
                 .collect(),
             active_view: self.active,
@@ -144,6 +159,8 @@ impl BurnishApp {
                 view.scene,
                 view.paint,
                 view.muted,
+                view.unpainted,
+                view.base,
             )?);
         }
         for old in self.views.drain(..) {
@@ -161,7 +178,7 @@ impl BurnishApp {
             });
             self.worker.send(Command::ReplacePaint {
                 view: doc.id,
-                painted: doc.painted_pixels(),
+                painted: doc.counted_pixels(),
             });
         }
         self.views = docs;
@@ -187,6 +204,8 @@ impl BurnishApp {
                 scene: view.scene.clone(),
                 muted: false,
                 paint: view.canvas.layers().clone(),
+                unpainted: view.unpainted,
+                base: None,
             }],
             active_view: 0,
             brush: self.brush.clone(),
@@ -261,7 +280,7 @@ impl BurnishApp {
         doc.import_painting(&image)?;
         self.worker.send(Command::ReplacePaint {
             view: doc.id,
-            painted: doc.painted_pixels(),
+            painted: doc.counted_pixels(),
         });
         self.canvas_view.invalidate();
         self.touch();
@@ -273,8 +292,35 @@ impl BurnishApp {
         let Some(doc) = self.active_view() else {
             return Ok(());
         };
-        write_png(path, doc.canvas.guide())?;
+        write_png(path, &doc.guide)?;
         self.notify(format!("guide written to {}", path.display()));
+        Ok(())
+    }
+
+    /// Writes the active view's painting and its coverage mask (see
+    /// [`Action::ExportPainting`]).
+    pub fn export_painting(&mut self, path: &Path) -> crate::Result<()> {
+        let Some(doc) = self.active_view() else {
+            return Ok(());
+        };
+        let layers = doc.canvas.layers();
+        let mask = crate::image_io::RgbImage {
+            width: layers.colour.width,
+            height: layers.colour.height,
+            pixels: layers
+                .coverage
+                .iter()
+                .map(|&c| if c > 0.0 { [1.0; 3] } else { [0.0; 3] })
+                .collect(),
+        };
+        let mask_path = painting_mask_path(path);
+        crate::scene::write_image(path, &layers.colour)?;
+        write_png(&mask_path, &mask)?;
+        self.notify(format!(
+            "painting written to {} and what was painted to {}",
+            path.display(),
+            mask_path.display()
+        ));
         Ok(())
     }
 
@@ -320,6 +366,17 @@ impl BurnishApp {
         );
         self.worker
             .send(Command::SetStartMaterial(Some(table.clone())));
+        // Paint on the starting material: every canvas shows it under its paint, so that
+        // pixels counted as shown say "this material" rather than the grey guide.
+        for doc in &mut self.views {
+            doc.set_prediction(render_table(&doc.gbuffer, &table))?;
+            self.worker.send(Command::ReplacePaint {
+                view: doc.id,
+                painted: doc.counted_pixels(),
+            });
+        }
+        self.canvas_view.invalidate();
+        self.touch();
         self.start_material = Some(name.clone());
         self.set_reference(name.clone(), table);
         self.notify(format!("painting from {name}"));
@@ -331,6 +388,16 @@ impl BurnishApp {
             self.worker.send(Command::SetStartMaterial(None));
         }
     }
+}
+
+/// Where [`Action::ExportPainting`] writes the mask of painted pixels for a painting at
+/// `painting`: `NAME-mask.png` beside it (white: painted).
+pub fn painting_mask_path(painting: &Path) -> PathBuf {
+    let stem = painting
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    painting.with_file_name(format!("{stem}-mask.png"))
 }
 
 /// Keyboard shortcuts that work wherever the focus is.
@@ -438,6 +505,12 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
             ui.separator();
             if ui.button("Export guide PNG…").clicked() {
                 pick_save(app, "Export guide", "png", Action::ExportGuide);
+            }
+            if ui
+                .button("Export painting and mask (EXR or PNG)…")
+                .clicked()
+            {
+                pick_save(app, "Export painting", "exr", Action::ExportPainting);
             }
             if ui.button("Import painting (PNG or EXR)…").clicked() {
                 pick_open(

@@ -22,6 +22,8 @@ pub struct CanvasView {
     stale: bool,
     stroke: Option<StrokeInput>,
     overlay: Option<(TextureHandle, Instant)>,
+    /// The active view's guide, the reference layer drawn over a prediction canvas.
+    guide: Option<(TextureHandle, u32, usize)>,
     /// Pen pressure of the last touch event, when the platform reports one.
     pressure: Option<f32>,
     /// What the last frame showed: canvas rectangle on screen and canvas resolution.
@@ -36,6 +38,7 @@ impl CanvasView {
     pub fn invalidate(&mut self) {
         self.stale = true;
         self.overlay = None;
+        self.guide = None;
     }
 
     pub fn mark_dirty(&mut self, rect: PixelRect) {
@@ -251,6 +254,34 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
             Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
             Color32::WHITE,
         );
+    }
+    if app.guide_opacity > 0.0
+        && let Some(doc) = app.views.get(app.active)
+    {
+        let side = doc.guide.width;
+        let current = app
+            .canvas_view
+            .guide
+            .as_ref()
+            .is_some_and(|(_, id, n)| *id == view_id && *n == side);
+        if !current {
+            let full = PixelRect::new(0, 0, side as u32, doc.guide.height as u32);
+            let image = region_image(&doc.guide.pixels, side, full);
+            app.canvas_view.guide = Some((
+                ui.ctx()
+                    .load_texture("guide", image, TextureOptions::NEAREST),
+                view_id,
+                side,
+            ));
+        }
+        if let Some((texture, _, _)) = &app.canvas_view.guide {
+            painter.image(
+                texture.id(),
+                rect,
+                Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+                Color32::from_white_alpha((app.guide_opacity.clamp(0.0, 1.0) * 255.0) as u8),
+            );
+        }
     }
     if app.show_overlay {
         update_overlay(app, ui.ctx());

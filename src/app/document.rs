@@ -1,9 +1,19 @@
 //! The views of a session as the app holds them: scene, geometry, guide and canvas.
 
-use crate::paint::{Canvas, PaintLayers};
+use crate::image_io::RgbImage;
+use crate::paint::{Canvas, PaintLayers, UnpaintedPixels};
 use crate::scene::{GBuffer, Object, Scene, guide_image};
 use crate::worker::ViewId;
 use std::sync::Arc;
+
+/// What a view's canvas shows under the paint.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Base {
+    /// The grey diffuse guide.
+    Guide,
+    /// The BRDF as it was reconstructed when the prediction was made, rendered for this view.
+    Prediction,
+}
 
 /// One view: a scene (object, light, camera), its geometry buffer and its canvas.
 pub struct ViewDoc {
@@ -12,12 +22,17 @@ pub struct ViewDoc {
     pub scene: Scene,
     pub object: Arc<Object>,
     pub gbuffer: Arc<GBuffer>,
+    /// The scene's grey diffuse guide: a fresh canvas's base, and the reference layer.
+    pub guide: RgbImage,
     pub canvas: Canvas,
     pub muted: bool,
+    /// What the pixels the artist did not paint say.
+    pub unpainted: UnpaintedPixels,
+    base: Base,
 }
 
 impl ViewDoc {
-    /// A new, unpainted view of `scene`.
+    /// A new, unpainted view of `scene` over its guide.
     pub fn new(id: ViewId, name: String, scene: Scene) -> crate::Result<Self> {
         let object = Arc::new(Object::load(&scene.object_source())?);
         let gbuffer = Arc::new(GBuffer::build(&scene, &object));
@@ -29,30 +44,72 @@ impl ViewDoc {
             scene,
             object,
             gbuffer,
-            canvas: Canvas::new(guide, mask),
+            canvas: Canvas::new(guide.clone(), mask),
+            guide,
             muted: false,
+            unpainted: UnpaintedPixels::default(),
+            base: Base::Guide,
         })
     }
 
-    /// A view with saved paint (session open, recovery).
+    /// A view with saved paint (session open, recovery) over its guide, or over a saved
+    /// prediction.
     pub fn with_paint(
         id: ViewId,
         name: String,
         scene: Scene,
         layers: PaintLayers,
         muted: bool,
+        unpainted: UnpaintedPixels,
+        prediction: Option<RgbImage>,
     ) -> crate::Result<Self> {
         let mut doc = Self::new(id, name, scene)?;
-        let guide = doc.canvas.guide().clone();
-        doc.canvas = Canvas::from_layers(guide, object_mask(&doc.gbuffer), layers)
+        let base = prediction.clone().unwrap_or_else(|| doc.guide.clone());
+        doc.canvas = Canvas::from_layers(base, object_mask(&doc.gbuffer), layers)
             .map_err(|e| paint_error(&doc.name, e))?;
         doc.muted = muted;
+        doc.unpainted = unpainted;
+        doc.base = if prediction.is_some() {
+            Base::Prediction
+        } else {
+            Base::Guide
+        };
         Ok(doc)
     }
 
+    /// What the canvas shows under the paint.
+    pub fn base(&self) -> Base {
+        self.base
+    }
+
+    /// The prediction under the paint, if the canvas shows one (for session files).
+    pub fn prediction(&self) -> Option<&RgbImage> {
+        (self.base == Base::Prediction).then(|| self.canvas.base())
+    }
+
+    /// Puts a render of the current BRDF for this view under the paint.
+    pub fn set_prediction(&mut self, image: RgbImage) -> crate::Result<()> {
+        self.canvas
+            .set_base(image)
+            .map_err(|e| paint_error(&self.name, e))?;
+        self.base = Base::Prediction;
+        Ok(())
+    }
+
+    /// Puts the guide back under the paint.
+    pub fn set_guide_base(&mut self) {
+        if self.base != Base::Guide {
+            self.canvas
+                .set_base(self.guide.clone())
+                .expect("the guide fits its own canvas");
+            self.base = Base::Guide;
+        }
+    }
+
     /// Applies a new scene. The geometry and guide are rebuilt; painted pixels keep their
-    /// colour (they now stand for the new light and view), unpainted ones show the new guide.
-    /// Undo history starts over, since old strokes refer to the old guide.
+    /// colour (they now stand for the new light and view), unpainted ones show the new guide
+    /// (a prediction was made for the old scene: the caller may ask for a new one).
+    /// Undo history starts over, since old strokes refer to the old base.
     pub fn set_scene(&mut self, scene: Scene) -> crate::Result<()> {
         let object = if scene.object_source() == self.scene.object_source() {
             self.object.clone()
@@ -75,8 +132,10 @@ impl ViewDoc {
         } else {
             PaintLayers::unpainted(&guide)
         };
-        self.canvas =
-            Canvas::from_layers(guide, mask, layers).map_err(|e| paint_error(&self.name, e))?;
+        self.canvas = Canvas::from_layers(guide.clone(), mask, layers)
+            .map_err(|e| paint_error(&self.name, e))?;
+        self.guide = guide;
+        self.base = Base::Guide;
         self.scene = scene;
         self.object = object;
         self.gbuffer = gbuffer;
@@ -85,10 +144,9 @@ impl ViewDoc {
 
     /// Replaces the painting with an image painted elsewhere: every object pixel becomes
     /// paint of the image's colour, as one edit that Ctrl+Z takes back.
-    pub fn import_painting(&mut self, image: &crate::image_io::RgbImage) -> crate::Result<()> {
-        let guide = self.canvas.guide().clone();
+    pub fn import_painting(&mut self, image: &RgbImage) -> crate::Result<()> {
         let mask = object_mask(&self.gbuffer);
-        let mut layers = PaintLayers::unpainted(&guide);
+        let mut layers = PaintLayers::unpainted(self.canvas.base());
         for (i, &inside) in mask.iter().enumerate() {
             if inside {
                 layers.colour.pixels[i] = image.pixels[i];
@@ -103,16 +161,23 @@ impl ViewDoc {
         Ok(())
     }
 
-    /// Every painted pixel and its colour, for the worker.
-    pub fn painted_pixels(&self) -> Vec<(u32, [f32; 3])> {
-        let layers = self.canvas.layers();
-        layers
-            .coverage
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| **c > 0.0)
-            .map(|(i, _)| (i as u32, layers.colour.pixels[i]))
-            .collect()
+    /// Every pixel that gives a sample under the view's rule, with the colour it shows, for
+    /// the worker.
+    pub fn counted_pixels(&self) -> Vec<(u32, [f32; 3])> {
+        self.canvas
+            .layers()
+            .counted_pixels(self.unpainted, self.canvas.object_mask())
+    }
+
+    /// What pixel `pixel` says after a change whose painted state is `painted` (`None`:
+    /// unpainted): its paint, or under "count as shown" the base it shows.
+    pub fn statement(&self, pixel: u32, painted: Option<[f32; 3]>) -> Option<[f32; 3]> {
+        let i = pixel as usize;
+        painted.or_else(|| {
+            self.unpainted
+                .counts(self.canvas.object_mask()[i], false)
+                .then(|| self.canvas.base().pixels[i])
+        })
     }
 }
 
@@ -123,4 +188,39 @@ pub fn object_mask(gbuffer: &GBuffer) -> Vec<bool> {
 
 fn paint_error(view: &str, e: crate::paint::CanvasError) -> crate::Error {
     crate::Error::invalid(std::path::Path::new(view), format!("painting: {e}"))
+}
+
+/// Light–view angles a proposed view may have: narrower shows little new, wider leaves most
+/// of the object in shadow.
+const PROPOSED_ANGLE_DEG: std::ops::RangeInclusive<f64> = 20.0..=100.0;
+
+/// The angle between the light and the camera of `scene`, in degrees.
+fn light_view_angle_deg(scene: &Scene) -> f64 {
+    let toward_camera = crate::scene::CameraRig::new(scene).toward_camera;
+    let light = crate::scene::light_direction(&scene.light);
+    light
+        .dot(toward_camera)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
+}
+
+/// A view to add after `existing` (at least one): among the next-view candidates around
+/// `base`, the one whose light–view angle is farthest from every existing view's, so the new
+/// canvas reaches other bins instead of repeating view 1's.
+pub fn propose_view(base: &Scene, existing: &[Scene]) -> Scene {
+    let angles: Vec<f64> = existing.iter().map(light_view_angle_deg).collect();
+    crate::next_view::candidate_scenes(base, 48)
+        .into_iter()
+        .map(|scene| {
+            let angle = light_view_angle_deg(&scene);
+            let distance = angles
+                .iter()
+                .map(|a| (a - angle).abs())
+                .fold(f64::INFINITY, f64::min);
+            (scene, angle, distance)
+        })
+        .filter(|(_, angle, _)| PROPOSED_ANGLE_DEG.contains(angle))
+        .max_by(|a, b| a.2.total_cmp(&b.2))
+        .map_or_else(|| base.clone(), |(scene, _, _)| scene)
 }

@@ -13,16 +13,16 @@ mod side_panel;
 mod status_bar;
 mod widgets;
 
-pub use actions::Action;
+pub use actions::{Action, painting_mask_path};
 pub use basis_job::{BasisJob, BasisStatus};
-pub use document::ViewDoc;
+pub use document::{Base, ViewDoc};
 pub use preview_panel::{PreviewState, Reference, TableOverlays, TableSource};
 
 use crate::basis::{Basis, BasisCache, BasisSpec};
 use crate::paint::{BrushPreset, BrushSettings, load_presets};
 use crate::scene::Scene;
 use crate::session::{Autosaver, BasisSettings, RecoveryInfo};
-use crate::worker::{Command, Snapshot, ViewId, Worker};
+use crate::worker::{Analysis, AnalysisKind, Command, Snapshot, ViewId, Worker};
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -122,6 +122,8 @@ pub struct BurnishApp {
     pub active_tip: Option<Arc<crate::paint::TipMask>>,
     pub canvas_view: canvas_panel::CanvasView,
     pub show_overlay: bool,
+    /// How strongly the view's guide shows over its canvas (the reference layer; 0: hidden).
+    pub guide_opacity: f32,
     pub session_path: Option<PathBuf>,
     /// Whether anything changed since the last save.
     pub dirty: bool,
@@ -140,6 +142,9 @@ pub struct BurnishApp {
     pending_actions: Vec<Action>,
     /// The name of the material the painting starts from (the worker holds the table).
     pub start_material: Option<String>,
+    /// New views whose canvas waits for the prediction of the current BRDF; they give no
+    /// samples until it arrives (or the worker says there is no basis to predict with).
+    awaiting_prediction: HashSet<ViewId>,
 }
 
 /// The basis the settings ask for: the default database at its size, K components.
@@ -225,6 +230,7 @@ impl BurnishApp {
             active_tip: None,
             canvas_view: canvas_panel::CanvasView::default(),
             show_overlay: false,
+            guide_opacity: 0.0,
             session_path: None,
             dirty: false,
             changed_since_autosave: false,
@@ -237,6 +243,7 @@ impl BurnishApp {
             preview_state: preview_panel::PreviewState::default(),
             pending_actions: Vec::new(),
             start_material: None,
+            awaiting_prediction: HashSet::new(),
         };
         for e in preset_errors {
             app.notify_error(format!("brush preset skipped: {e}"));
@@ -303,6 +310,21 @@ impl BurnishApp {
             view: id,
             gbuffer: doc.gbuffer.clone(),
         });
+        if self.basis.is_some() && !self.views.is_empty() {
+            // Paint on the prediction: the canvas starts from the current BRDF rendered for
+            // this view. Its pixels are stated once the render is under them.
+            self.worker.send(Command::Predict {
+                view: id,
+                gbuffer: doc.gbuffer.clone(),
+            });
+            self.awaiting_prediction.insert(id);
+        } else {
+            // Under "count as shown" an unpainted canvas already says what its base shows.
+            self.worker.send(Command::ReplacePaint {
+                view: id,
+                painted: doc.counted_pixels(),
+            });
+        }
         self.views.push(doc);
         self.active = self.views.len() - 1;
         self.canvas_view.invalidate();
@@ -333,19 +355,111 @@ impl BurnishApp {
         }
     }
 
+    /// Whether a new view still waits for the prediction its canvas starts from.
+    pub fn predictions_pending(&self) -> bool {
+        !self.awaiting_prediction.is_empty()
+    }
+
+    /// Asks for a render of the current BRDF for the view at `index`, to put under its paint
+    /// when it arrives ("Start from the current BRDF").
+    pub fn start_from_current_brdf(&mut self, index: usize) {
+        let Some(doc) = self.views.get(index) else {
+            return;
+        };
+        if self.basis.is_none() {
+            self.notify_error("there is no BRDF to start from until the basis is ready");
+            return;
+        }
+        self.worker.send(Command::Predict {
+            view: doc.id,
+            gbuffer: doc.gbuffer.clone(),
+        });
+    }
+
+    /// Takes an answer of the worker's analysis thread.
+    fn take_analysis(&mut self, answer: Analysis) {
+        match answer {
+            Analysis::Prediction {
+                view,
+                gbuffer,
+                image,
+                ..
+            } => {
+                let awaited = self.awaiting_prediction.remove(&view);
+                let Some(index) = self.views.iter().position(|d| d.id == view) else {
+                    return;
+                };
+                let doc = &mut self.views[index];
+                // A scene changed since the request: the render is of other geometry, and
+                // the change already sent the view's pixels.
+                if !Arc::ptr_eq(&doc.gbuffer, &gbuffer) {
+                    return;
+                }
+                let result = doc.set_prediction(image);
+                self.worker.send(Command::ReplacePaint {
+                    view,
+                    painted: doc.counted_pixels(),
+                });
+                if index == self.active {
+                    self.canvas_view.invalidate();
+                }
+                if !awaited {
+                    self.touch();
+                }
+                if let Err(e) = result {
+                    self.notify_error(e.to_string());
+                }
+            }
+            Analysis::NoBasis {
+                what: AnalysisKind::Prediction { view },
+            } => {
+                if self.awaiting_prediction.remove(&view)
+                    && let Some(doc) = self.views.iter().find(|d| d.id == view)
+                {
+                    self.worker.send(Command::ReplacePaint {
+                        view,
+                        painted: doc.counted_pixels(),
+                    });
+                }
+                self.notify("no BRDF to predict yet: the view shows the guide");
+            }
+            Analysis::Uncertainty { .. }
+            | Analysis::RankedViews { .. }
+            | Analysis::NoBasis { .. } => {}
+        }
+    }
+
+    /// Sets what the unpainted pixels of the view at `index` say; the worker re-derives its
+    /// samples.
+    pub fn set_unpainted(&mut self, index: usize, rule: crate::paint::UnpaintedPixels) {
+        let Some(doc) = self.views.get_mut(index) else {
+            return;
+        };
+        if doc.unpainted == rule {
+            return;
+        }
+        doc.unpainted = rule;
+        self.worker.send(Command::ReplacePaint {
+            view: doc.id,
+            painted: doc.counted_pixels(),
+        });
+        self.touch();
+    }
+
     /// Applies a changed scene to the view at `index`.
     pub fn set_scene(&mut self, index: usize, scene: Scene) -> crate::Result<()> {
         let Some(doc) = self.views.get_mut(index) else {
             return Ok(());
         };
         doc.set_scene(scene)?;
+        self.awaiting_prediction.remove(&doc.id);
         self.worker.send(Command::SetView {
             view: doc.id,
             gbuffer: doc.gbuffer.clone(),
         });
         self.worker.send(Command::ReplacePaint {
             view: doc.id,
-            painted: doc.painted_pixels(),
+            painted: doc.counted_pixels(),
         });
         self.canvas_view.invalidate();
         self.touch();
@@ -365,13 +479,15 @@ impl BurnishApp {
             return;
         };
         self.canvas_view.mark_dirty(changes.dirty);
+        // The worker hears what each pixel says under the view's rule: an unpainted pixel
+        // that counts as shown states the base under it.
         let edits = changes
             .pixels
             .iter()
             .map(|c| crate::worker::PixelEdit {
                 pixel: c.pixel,
-                before: c.before,
-                after: c.after,
+                before: doc.statement(c.pixel, c.before),
+                after: doc.statement(c.pixel, c.after),
             })
             .collect();
         self.worker.send(Command::Pixels {
@@ -385,6 +501,9 @@ impl BurnishApp {
     /// Takes what background threads finished: the basis, snapshots and bin updates.
     pub fn poll_background(&mut self) {
         self.poll_basis();
+        for answer in self.worker.take_analyses() {
+            self.take_analysis(answer);
+        }
         for update in self.worker.take_bin_updates() {
             match update.value {
                 Some(v) => self.observed.insert(update.pair, v),

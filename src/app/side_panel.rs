@@ -4,6 +4,7 @@
 use super::widgets::light_dial;
 use super::{Action, BasisJob, BurnishApp};
 use crate::basis::{BasisCache, BasisSpec};
+use crate::paint::UnpaintedPixels;
 use crate::scene::{BuiltinShape, Projection, Scene};
 use crate::solver::{Policy, Regularization};
 use crate::worker::Command;
@@ -57,6 +58,47 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
     if ui.button("+ Add view").clicked() {
         app.queue(Action::AddView);
     }
+    if let Some(doc) = app.active_view() {
+        let mut rule = doc.unpainted;
+        ui.horizontal(|ui| {
+            let label = ui.label("Unpainted pixels");
+            egui::ComboBox::from_id_salt("unpainted")
+                .selected_text(unpainted_label(rule))
+                .show_ui(ui, |ui| {
+                    for r in [UnpaintedPixels::CountAsShown, UnpaintedPixels::Ignore] {
+                        ui.selectable_value(&mut rule, r, unpainted_label(r));
+                    }
+                })
+                .response
+                .labelled_by(label.id)
+                .on_hover_text(
+                    "count as shown: the whole canvas is a statement about the material \
+                     (on the guide: grey diffuse where you did not paint). ignore: only \
+                     painted pixels count; the rest is extrapolated",
+                );
+        });
+        if rule != doc.unpainted {
+            app.set_unpainted(app.active, rule);
+        }
+        ui.horizontal(|ui| {
+            if ui
+                .button("Start from the current BRDF")
+                .on_hover_text(
+                    "Show the current reconstruction, rendered for this view, wherever \
+                     nothing is painted: correct what is wrong instead of repainting",
+                )
+                .clicked()
+            {
+                app.queue(Action::StartFromCurrentBrdf);
+            }
+        });
+        ui.add(
+            egui::Slider::new(&mut app.guide_opacity, 0.0..=1.0)
+                .text("guide over canvas")
+                .fixed_decimals(2),
+        )
+        .on_hover_text("The grey guide as a reference layer over the canvas (display only)");
+    }
     if let Some(i) = select {
         app.active = i;
         app.canvas_view.invalidate();
@@ -66,6 +108,13 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
     }
     if let Some(i) = close {
         app.remove_view(i);
+    }
+}
+
+fn unpainted_label(rule: UnpaintedPixels) -> &'static str {
+    match rule {
+        UnpaintedPixels::CountAsShown => "count as shown",
+        UnpaintedPixels::Ignore => "ignore",
     }
 }
 

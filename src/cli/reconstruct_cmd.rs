@@ -6,7 +6,8 @@ use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::bench::oracle::OracleProjector;
 use crate::export::load_table;
 use crate::materials::database::DatabaseSpec;
-use crate::scene::{Scene, samples_from_file};
+use crate::paint::UnpaintedPixels;
+use crate::scene::{Scene, read_painting, samples_from_file};
 use crate::solver::{BinChange, Policy, Reconstruction, Regularization, Solver, SparseTable};
 use crate::table::{exr_file::write_table_exr, merl::MerlBrdf};
 use anyhow::bail;
@@ -90,6 +91,16 @@ pub struct ReconstructArgs {
     /// becomes the prior mean, so the paintings edit it and unpainted parts keep it.
     #[arg(long, value_name = "FILE")]
     pub start: Option<PathBuf>,
+    /// What the pixels the artist did not paint say, as in the app: `count` (every lit object
+    /// pixel is a sample of what it shows) or `ignore` (only painted pixels are; needs a
+    /// `--mask` per view).
+    #[arg(long, default_value = "count")]
+    pub unpainted: UnpaintedPixels,
+    /// Which pixels of a view were painted (PNG or EXR of the painting's size; non-black:
+    /// painted), e.g. the `-mask.png` the app exports beside a painting. One per `--view`, in
+    /// the same order; used with `--unpainted ignore`.
+    #[arg(long = "mask", value_name = "MASK")]
+    pub masks: Vec<PathBuf>,
 }
 
 /// Paintings of views, binned: the sparse table, the bin changes that built it, the scenes.
@@ -99,8 +110,27 @@ pub(crate) struct PaintedViews {
     pub scenes: Vec<Scene>,
 }
 
-/// Reads every `--view`, reporting what each gave; an error names the file and the problem.
+/// Reads every `--view`, every lit object pixel a sample, reporting what each gave; an error
+/// names the file and the problem.
 pub(crate) fn read_views(views: &[ViewArg], policy: Policy) -> anyhow::Result<PaintedViews> {
+    read_views_masked(views, policy, UnpaintedPixels::CountAsShown, &[])
+}
+
+/// [`read_views`] under the rule `unpainted`, `masks[i]` saying which pixels of view i were
+/// painted (needed for every view under [`UnpaintedPixels::Ignore`]).
+pub(crate) fn read_views_masked(
+    views: &[ViewArg],
+    policy: Policy,
+    unpainted: UnpaintedPixels,
+    masks: &[PathBuf],
+) -> anyhow::Result<PaintedViews> {
+    if unpainted == UnpaintedPixels::Ignore && masks.len() != views.len() {
+        bail!(
+            "--unpainted ignore needs one --mask per --view saying what was painted ({} views, {} masks)",
+            views.len(),
+            masks.len()
+        );
+    }
     let mut table = SparseTable::new(policy);
     let mut changes = Vec::new();
     let mut scenes = Vec::new();
@@ -108,7 +138,21 @@ pub(crate) fn read_views(views: &[ViewArg], policy: Policy) -> anyhow::Result<Pa
         let start = Instant::now();
         let (scene, gbuffer) = scene_gbuffer(&arg.scene)?;
         let geometry_ms = start.elapsed().as_secs_f64() * 1e3;
-        let set = samples_from_file(&gbuffer, &arg.painting)?;
+        let mut set = samples_from_file(&gbuffer, &arg.painting)?;
+        if unpainted == UnpaintedPixels::Ignore {
+            let mask = read_painting(&masks[view], gbuffer.resolution())?;
+            let before = set.samples.len();
+            set.samples.retain(|s| {
+                let p = mask.pixels[s.pixel as usize];
+                p.iter().any(|&c| c > 0.0)
+            });
+            let unpainted = before - set.samples.len();
+            set.counts.used -= unpainted;
+            println!(
+                "  {unpainted} unpainted pixels ignored ({})",
+                masks[view].display()
+            );
+        }
         set.insert_into(view as u32, &mut table, &mut changes)
             .map_err(|(pixel, e)| {
                 anyhow::anyhow!("{}: pixel {pixel}: {e}", arg.painting.display())
@@ -230,7 +274,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
         Some(path) => Some((path, load_table(path)?)),
         None => None,
     };
-    let painted = read_views(&args.views, args.policy)?;
+    let painted = read_views_masked(&args.views, args.policy, args.unpainted, &args.masks)?;
     let basis = load_basis(&args.basis)?;
     let start_mean = start_material
         .as_ref()

@@ -1,4 +1,5 @@
-//! The canvas: an HDR paint layer over a view's guide image, the brush tools that change it,
+//! The canvas: an HDR paint layer over a view's base image (the guide, or a prediction of the
+//! current BRDF), the brush tools that change it,
 //! the changed pixels it reports and whole-stroke undo.
 //!
 //! Coordinates are canvas pixels, x to the right and y down; pixel (i, j) covers
@@ -13,7 +14,7 @@ use crate::image_io::RgbImage;
 use std::sync::Arc;
 
 /// Coverage below this counts as none: the eraser, smudge and blur then give the pixel back
-/// to the guide, bit for bit, instead of leaving an invisible trace that would still be a
+/// to the base, bit for bit, instead of leaving an invisible trace that would still be a
 /// BRDF sample.
 pub const MIN_COVERAGE: f32 = 1.0 / 1024.0;
 /// The default memory bound of the undo history (undo and redo together).
@@ -35,13 +36,13 @@ const NO_SLOT: u32 = u32::MAX;
 /// Why paint layers do not fit a canvas.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum CanvasError {
-    #[error("{what} has {found} pixels; the guide has {expected}")]
+    #[error("{what} has {found} pixels; the base image has {expected}")]
     SizeMismatch {
         what: &'static str,
         expected: usize,
         found: usize,
     },
-    #[error("the guide is {width}×{height}; a canvas must be square")]
+    #[error("the base image is {width}×{height}; a canvas must be square")]
     NotSquare { width: usize, height: usize },
     #[error("pixel {pixel}: {problem}")]
     BadPixel { pixel: usize, problem: String },
@@ -51,14 +52,17 @@ pub enum CanvasError {
 ///
 /// Painting model: `layers().colour` is what the artist sees (linear RGB, may exceed 1) and
 /// `layers().coverage` how much paint is there; painted pixels (coverage > 0) are the BRDF
-/// samples, unpainted ones hold the guide's colour exactly. Nothing outside the object mask
+/// samples (with all object pixels, under
+/// [`UnpaintedPixels::CountAsShown`](super::UnpaintedPixels)), unpainted ones hold the
+/// base's colour exactly. Nothing outside the object mask
 /// is ever painted.
 ///
 /// Edits leave their changes in a batch that [`take_changes`](Self::take_changes) drains;
 /// [`undo`](Self::undo) and [`redo`](Self::redo) drain it themselves.
 #[derive(Clone)]
 pub struct Canvas {
-    guide: RgbImage,
+    /// What unpainted pixels show: the guide, or a prediction of the current BRDF.
+    base: RgbImage,
     object: Vec<bool>,
     layers: PaintLayers,
     grid: TileGrid,
@@ -113,27 +117,27 @@ struct Pickup {
 }
 
 impl Canvas {
-    /// An unpainted canvas over `guide` (linear RGB, from `scene::guide_image`);
+    /// An unpainted canvas over `base` (linear RGB: `scene::guide_image`, or a render of a BRDF);
     /// `object_mask[i]` is true where the object covers pixel i (`GBuffer::at(i).is_some()`).
     ///
     /// # Panics
-    /// If the guide is not square or the mask's length is not the guide's pixel count; both
+    /// If the base is not square or the mask's length is not the base's pixel count; both
     /// come from the same geometry buffer, so a mismatch is a programming error.
-    pub fn new(guide: RgbImage, object_mask: Vec<bool>) -> Self {
-        assert_eq!(guide.width, guide.height, "the guide must be square");
+    pub fn new(base: RgbImage, object_mask: Vec<bool>) -> Self {
+        assert_eq!(base.width, base.height, "the base image must be square");
         assert_eq!(
             object_mask.len(),
-            guide.pixels.len(),
-            "the object mask must have one entry per guide pixel"
+            base.pixels.len(),
+            "the object mask must have one entry per base pixel"
         );
-        let layers = PaintLayers::unpainted(&guide);
-        let grid = TileGrid::new(guide.width, guide.height);
+        let layers = PaintLayers::unpainted(&base);
+        let grid = TileGrid::new(base.width, base.height);
         Self {
             batch: Batch {
                 slot: vec![NO_SLOT; grid.count()],
                 tiles: Vec::new(),
             },
-            guide,
+            base,
             object: object_mask,
             layers,
             grid,
@@ -144,22 +148,22 @@ impl Canvas {
         }
     }
 
-    /// A canvas holding saved paint. Sizes must match the guide, colours must be finite and
+    /// A canvas holding saved paint. Sizes must match the base, colours must be finite and
     /// non-negative and coverage in [0, 1]. Paint off the object is dropped and unpainted
-    /// pixels are given the guide's colour, so the canvas's invariants hold.
+    /// pixels are given the base's colour, so the canvas's invariants hold.
     pub fn from_layers(
-        guide: RgbImage,
+        base: RgbImage,
         object_mask: Vec<bool>,
         layers: PaintLayers,
     ) -> Result<Self, CanvasError> {
-        if guide.width != guide.height {
+        if base.width != base.height {
             return Err(CanvasError::NotSquare {
-                width: guide.width,
-                height: guide.height,
+                width: base.width,
+                height: base.height,
             });
         }
-        check_layers(&guide, object_mask.len(), &layers)?;
-        let mut canvas = Self::new(guide, object_mask);
+        check_layers(&base, object_mask.len(), &layers)?;
+        let mut canvas = Self::new(base, object_mask);
         canvas.layers = layers;
         canvas.unpaint_where_uncovered();
         Ok(canvas)
@@ -169,7 +173,7 @@ impl Canvas {
     /// undo takes back; the same checks as [`from_layers`](Self::from_layers). The changed
     /// pixels come out of [`take_changes`](Self::take_changes) like any edit's.
     pub fn replace_layers(&mut self, mut layers: PaintLayers) -> Result<(), CanvasError> {
-        check_layers(&self.guide, self.object.len(), &layers)?;
+        check_layers(&self.base, self.object.len(), &layers)?;
         self.end_stroke();
         std::mem::swap(&mut self.layers, &mut layers);
         self.unpaint_where_uncovered();
@@ -190,11 +194,11 @@ impl Canvas {
         Ok(())
     }
 
-    /// Shows the guide, with no coverage, wherever nothing is painted or there is no object.
+    /// Shows the base, with no coverage, wherever nothing is painted or there is no object.
     fn unpaint_where_uncovered(&mut self) {
-        for i in 0..self.guide.pixels.len() {
+        for i in 0..self.base.pixels.len() {
             if !self.object[i] || self.layers.coverage[i] == 0.0 {
-                self.layers.colour.pixels[i] = self.guide.pixels[i];
+                self.layers.colour.pixels[i] = self.base.pixels[i];
                 self.layers.coverage[i] = 0.0;
             }
         }
@@ -204,8 +208,39 @@ impl Canvas {
         &self.layers
     }
 
-    pub fn guide(&self) -> &RgbImage {
-        &self.guide
+    /// What unpainted pixels show (and the eraser brings back).
+    pub fn base(&self) -> &RgbImage {
+        &self.base
+    }
+
+    /// Puts `base` under the paint: unpainted pixels show it from now on, painted ones keep
+    /// their colour. Not an undo step (the paint is unchanged); strokes made before still
+    /// undo and redo exactly, their unpainted pixels showing the base of the moment. Ends a
+    /// stroke in progress first. The changed pixels are not reported by
+    /// [`take_changes`](Self::take_changes): the caller resends what the view shows.
+    pub fn set_base(&mut self, base: RgbImage) -> Result<(), CanvasError> {
+        if base.width != self.base.width || base.height != self.base.height {
+            return Err(CanvasError::SizeMismatch {
+                what: "the new base image",
+                expected: self.base.pixels.len(),
+                found: base.pixels.len(),
+            });
+        }
+        if let Some(pixel) = base
+            .pixels
+            .iter()
+            .position(|c| !c.iter().all(|x| x.is_finite() && *x >= 0.0))
+        {
+            let problem = format!(
+                "colour {:?} is not a finite non-negative colour",
+                base.pixels[pixel]
+            );
+            return Err(CanvasError::BadPixel { pixel, problem });
+        }
+        self.end_stroke();
+        self.base = base;
+        self.unpaint_where_uncovered();
+        Ok(())
     }
 
     pub fn object_mask(&self) -> &[bool] {
@@ -214,7 +249,7 @@ impl Canvas {
 
     /// Pixels along each side.
     pub fn resolution(&self) -> usize {
-        self.guide.width
+        self.base.width
     }
 
     /// The tip image round brushes use instead of their round shape, from the next stroke on
@@ -373,7 +408,7 @@ impl Canvas {
         self.commit(edit);
     }
 
-    /// The colour under (`x`, `y`) as the artist sees it (the guide where unpainted); points
+    /// The colour under (`x`, `y`) as the artist sees it (the base where unpainted); points
     /// off the canvas take the nearest pixel.
     pub fn pick(&self, x: f32, y: f32) -> [f32; 3] {
         let n = self.resolution();
@@ -496,10 +531,20 @@ impl Canvas {
     }
 
     fn swap_in(&mut self, step: &mut Step) {
+        let width = self.resolution();
         for data in &mut step.tiles {
             let rect = self.grid.rect(data.tile);
             self.batch.touch(&self.layers, &self.grid, data.tile, rect);
             data.swap_with(&mut self.layers, &self.grid);
+            // The step may date from another base (a prediction put under the paint since):
+            // what it leaves unpainted shows the base of now.
+            for y in rect.y0 as usize..rect.y1 as usize {
+                for i in y * width + rect.x0 as usize..y * width + rect.x1 as usize {
+                    if self.layers.coverage[i] == 0.0 {
+                        self.layers.colour.pixels[i] = self.base.pixels[i];
+                    }
+                }
+            }
         }
     }
 
@@ -592,9 +637,9 @@ impl Canvas {
                         BrushKind::Eraser => {
                             let v = v0 * (1.0 - s);
                             if s >= 1.0 || v < MIN_COVERAGE {
-                                (self.guide.pixels[i], 0.0)
+                                (self.base.pixels[i], 0.0)
                             } else {
-                                (mix(c0, self.guide.pixels[i], s), v)
+                                (mix(c0, self.base.pixels[i], s), v)
                             }
                         }
                         BrushKind::Lighten => {
@@ -637,7 +682,7 @@ impl Canvas {
     /// Blur: each pixel under the dab moves (by strength × dab) toward the box average of
     /// the object pixels around it, colour and coverage alike; the box's half-width is a
     /// tenth of the diameter (at least 1). Where there is no paint nearby the coverage
-    /// stays 0 and the guide stays untouched.
+    /// stays 0 and the base shows through untouched.
     fn blur_dab(&mut self, stroke: &mut Stroke, dab: &DabMask, diameter: f32, strength: f32) {
         let n = self.resolution() as u32;
         let reach = ((diameter * 0.1).round() as u32).max(1);
@@ -697,10 +742,10 @@ impl Canvas {
     }
 
     /// Stores a pixel's new paint; coverage under [`MIN_COVERAGE`] gives it back to the
-    /// guide exactly.
+    /// base exactly.
     fn set_or_unpaint(&mut self, i: usize, colour: [f32; 3], coverage: f32) {
         if coverage < MIN_COVERAGE {
-            self.layers.colour.pixels[i] = self.guide.pixels[i];
+            self.layers.colour.pixels[i] = self.base.pixels[i];
             self.layers.coverage[i] = 0.0;
         } else {
             self.layers.colour.pixels[i] = colour.map(|c| c.clamp(0.0, MAX_PAINT));
@@ -867,14 +912,10 @@ fn same_state(a: Option<[f32; 3]>, b: Option<[f32; 3]>) -> bool {
     }
 }
 
-/// Checks that `layers` fit a canvas with this guide and a mask of `mask_len` pixels and hold
+/// Checks that `layers` fit a canvas with this base and a mask of `mask_len` pixels and hold
 /// only finite, non-negative colour and coverage within [0, 1].
-fn check_layers(
-    guide: &RgbImage,
-    mask_len: usize,
-    layers: &PaintLayers,
-) -> Result<(), CanvasError> {
-    let expected = guide.pixels.len();
+fn check_layers(base: &RgbImage, mask_len: usize, layers: &PaintLayers) -> Result<(), CanvasError> {
+    let expected = base.pixels.len();
     let sizes = [
         ("the object mask", mask_len),
         ("the paint colour", layers.colour.pixels.len()),
@@ -889,10 +930,10 @@ fn check_layers(
             });
         }
     }
-    if (layers.colour.width, layers.colour.height) != (guide.width, guide.height) {
+    if (layers.colour.width, layers.colour.height) != (base.width, base.height) {
         return Err(CanvasError::SizeMismatch {
             what: "the paint colour's rows",
-            expected: guide.width,
+            expected: base.width,
             found: layers.colour.width,
         });
     }

@@ -69,7 +69,7 @@ impl PixelRect {
 }
 
 /// One pixel whose painted state or colour changed. `None` means "not painted" (coverage 0,
-/// the pixel shows the guide and gives no sample); `Some(c)` is a painted pixel's colour.
+/// the pixel shows the base); `Some(c)` is a painted pixel's colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelChange {
     /// Row-major pixel index.

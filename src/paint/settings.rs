@@ -11,7 +11,7 @@ pub enum BrushKind {
     Round,
     /// Soft airbrush: builds up with flow while held.
     Airbrush,
-    /// Takes paint off, back to the guide.
+    /// Takes paint off, back to the base (the guide or the prediction under the paint).
     Eraser,
     /// Drags the colour under the brush along the stroke.
     Smudge,

@@ -2,11 +2,15 @@
 //!
 //! - `session.toml`: `format_version`, `active_view` (from 0), an optional `session_path`
 //!   (recovery files only: the user's own file), `[brush]`, `[basis]` and one `[[views]]`
-//!   table per view with its `name`, `muted` flag and `base_dir` (the folder its scene's
-//!   relative object path resolves against).
+//!   table per view with its `name`, `muted` flag, `base_dir` (the folder its scene's
+//!   relative object path resolves against) and `unpainted` (`count` or `ignore`: what its
+//!   unpainted pixels say; files written before it existed meant `ignore`).
 //! - `views/N/scene.toml`: the view's scene, a SCENE.md file; its `object` is kept as given.
 //! - `views/N/colour.exr`: the colour layer, R, G and B as 32-bit floats (linear, HDR).
 //! - `views/N/coverage.exr`: the coverage layer, one 32-bit float channel `Y`.
+//! - `views/N/base.exr` (optional): what the canvas shows under the paint when it is a
+//!   prediction of the BRDF rather than the scene's guide, as `colour.exr`. Unpainted pixels
+//!   that count as shown state it, so it is kept to give the same samples on opening.
 //! - `views/N/object.obj`: for a scene with an .obj object, a copy of that file's bytes, so
 //!   the session opens on a machine without the original. On opening, the original path is
 //!   used where it holds these very bytes; otherwise the copy is extracted to
@@ -16,7 +20,7 @@ use super::{BasisSettings, Session, SessionView, check_colour, check_coverage};
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
 use crate::image_io::RgbImage;
-use crate::paint::{BrushSettings, PaintLayers};
+use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
 use crate::scene::{ObjectSource, Scene};
 use exr::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -77,6 +81,9 @@ struct ViewManifest {
     name: String,
     muted: bool,
     base_dir: String,
+    /// Absent in files written before the rule existed, when only painted pixels counted.
+    #[serde(default)]
+    unpainted: Option<String>,
 }
 
 /// What a session file's manifest says, without reading its images.
@@ -165,6 +172,7 @@ pub(crate) fn write_session(
                 name: v.name.clone(),
                 muted: v.muted,
                 base_dir: v.scene.base_dir.to_string_lossy().into_owned(),
+                unpainted: Some(v.unpainted.name().to_string()),
             })
             .collect(),
     };
@@ -202,6 +210,12 @@ pub(crate) fn write_session(
                     encode_coverage(&view.paint.coverage, view.scene.resolution as usize),
                 ),
             ]
+            .into_iter()
+            .chain(
+                view.base
+                    .as_ref()
+                    .map(|base| (entry(i, "base.exr"), encode_colour(base))),
+            )
         })
         .map(|(name, bytes)| {
             bytes
@@ -282,6 +296,24 @@ fn read_archive<R: Read + Seek>(
             .and_then(|coverage| check_coverage(&coverage, side).map(|()| coverage))
             .map_err(|problem| invalid(format!("{coverage_entry}: {problem}")))?;
 
+        let base_entry = entry(i, "base.exr");
+        let base = if archive.index_for_name(&base_entry).is_some() {
+            let bytes = read_entry(path, &mut archive, &base_entry, exr_limit(side, 3))?;
+            Some(
+                decode_colour(&bytes, side)
+                    .and_then(|base| check_colour(&base, side).map(|()| base))
+                    .map_err(|problem| invalid(format!("{base_entry}: {problem}")))?,
+            )
+        } else {
+            None
+        };
+        let unpainted = match &view.unpainted {
+            None => UnpaintedPixels::Ignore,
+            Some(name) => name
+                .parse()
+                .map_err(|e| invalid(format!("{MANIFEST}: views[{i}].unpainted: {e}")))?,
+        };
+
         embedded_objects.push(match scene.object_source() {
             ObjectSource::Obj(_) => Some(read_entry(
                 path,
@@ -296,6 +328,8 @@ fn read_archive<R: Read + Seek>(
             scene,
             muted: view.muted,
             paint: PaintLayers { colour, coverage },
+            unpainted,
+            base,
         });
     }
     let session = Session {

@@ -16,7 +16,7 @@ pub use file::{EXTENSION, FORMAT_VERSION, decode_paint_layers, object_cache_dir}
 use crate::basis::BasisSpec;
 use crate::error::Result;
 use crate::materials::database::DatabaseSpec;
-use crate::paint::{BrushSettings, PaintLayers};
+use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
 use crate::scene::{GBuffer, Object, Scene, guide_image};
 use crate::solver::{Policy, Regularization};
 
@@ -40,6 +40,11 @@ pub struct SessionView {
     pub muted: bool,
     /// `scene.resolution²` pixels.
     pub paint: PaintLayers,
+    /// What the pixels the artist did not paint say.
+    pub unpainted: UnpaintedPixels,
+    /// What the canvas shows under the paint when it is a prediction of the BRDF (`None`:
+    /// the scene's guide), `scene.resolution²` pixels.
+    pub base: Option<crate::image_io::RgbImage>,
 }
 
 /// How the painting becomes a table: which basis, and how the solver treats the samples.
@@ -76,6 +81,8 @@ impl SessionView {
             scene,
             muted: false,
             paint: PaintLayers::unpainted(&guide),
+            unpainted: UnpaintedPixels::default(),
+            base: None,
         })
     }
 }
@@ -124,6 +131,9 @@ impl SessionView {
         self.scene.check()?;
         let side = self.scene.resolution as usize;
         check_colour(&self.paint.colour, side)?;
+        if let Some(base) = &self.base {
+            check_colour(base, side).map_err(|p| format!("the prediction under the paint: {p}"))?;
+        }
         check_coverage(&self.paint.coverage, side)
     }
 }

@@ -6,13 +6,24 @@
 //! the sparse table itself (for the sparse-only preview and the overlays) go out as
 //! [`BinUpdate`] batches on a second channel, so none is lost when the UI skips snapshots.
 //!
-//! The worker mirrors what each view has painted (pixel → linear colour), so muting a view,
-//! moving its light or swapping the basis re-derives the samples without asking the canvas.
+//! The worker mirrors what each view says (pixel → linear colour: the painted pixels, or every
+//! object pixel when the view counts unpainted pixels as shown; the app decides), so muting a
+//! view, moving its light or swapping the basis re-derives the samples without asking the
+//! canvas.
+//!
+//! Work too slow for the solve loop (a prediction of the BRDF for a view, the table's
+//! uncertainty, the ranking of candidate next views) runs on a second thread, the analysis
+//! thread, from a copy of the worker's state when it was asked; its answers come back as
+//! [`Analysis`] values on a third channel.
 
 use crate::basis::Basis;
 use crate::bench::oracle::OracleProjector;
-use crate::scene::{GBuffer, sample_pixel};
-use crate::solver::{BinChange, Policy, Regularization, SampleKey, Solver, SparseTable};
+use crate::image_io::RgbImage;
+use crate::next_view::{RankedView, candidate_scenes, rank_views};
+use crate::scene::{GBuffer, Object, Scene, render_table, sample_pixel};
+use crate::solver::{
+    BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
+};
 use crate::table::SymTable;
 use arc_swap::ArcSwap;
 use crossbeam_channel::{Receiver, Sender, TryRecvError, unbounded};
@@ -24,8 +35,8 @@ use std::time::{Duration, Instant};
 /// A view's identity, shared by the canvas, the worker and the sparse table's sample keys.
 pub type ViewId = u32;
 
-/// One pixel of a view whose paint changed. `None` means the pixel carries no paint (it gives
-/// no sample); `Some` is its linear RGB radiance.
+/// One pixel of a view whose statement changed. `None` means the pixel says nothing (it gives
+/// no sample); `Some` is the linear RGB radiance it shows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelEdit {
     pub pixel: u32,
@@ -56,7 +67,8 @@ pub enum Command {
         edits: Vec<PixelEdit>,
         input_time: Instant,
     },
-    /// Replace every painted pixel of a view at once (import, undo of a fill, session open).
+    /// Replace every pixel a view states at once (import, session open, a new base under the
+    /// paint, a change of the view's rule for unpainted pixels).
     ReplacePaint {
         view: ViewId,
         painted: Vec<(u32, [f32; 3])>,
@@ -70,6 +82,54 @@ pub enum Command {
     SetStartMaterial(Option<Arc<SymTable>>),
     /// Answers with the version of the snapshot that includes every command sent before it.
     Sync(Sender<u64>),
+    /// Render the current BRDF for a view's geometry, as a perfect painter would paint it
+    /// (answered by [`Analysis::Prediction`]).
+    Predict {
+        view: ViewId,
+        gbuffer: Arc<GBuffer>,
+    },
+    /// Estimate the per-pair posterior standard deviation of ρ (answered by
+    /// [`Analysis::Uncertainty`]). Requests that queue up behind a running one are merged.
+    EstimateUncertainty,
+    /// Rank `candidates` views of `object` around `base` by how much painting them would
+    /// teach (answered by [`Analysis::RankedViews`] with the same `request`).
+    RankViews {
+        request: u64,
+        base: Box<Scene>,
+        object: Arc<Object>,
+        candidates: usize,
+    },
+}
+
+/// An answer of the analysis thread. `version` is the snapshot whose state it was computed
+/// from.
+#[derive(Clone, Debug)]
+pub enum Analysis {
+    /// The BRDF of snapshot `version` rendered for `gbuffer` (the view's geometry when asked).
+    Prediction {
+        view: ViewId,
+        version: u64,
+        gbuffer: Arc<GBuffer>,
+        image: RgbImage,
+    },
+    /// Per unordered pair, the posterior standard deviation of the luminance of ρ.
+    Uncertainty { version: u64, std_dev: Arc<[f32]> },
+    /// Candidate views, best first.
+    RankedViews {
+        request: u64,
+        version: u64,
+        views: Vec<RankedView>,
+    },
+    /// A request that has no answer yet: there is no basis to solve with.
+    NoBasis { what: AnalysisKind },
+}
+
+/// What an analysis request asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnalysisKind {
+    Prediction { view: ViewId },
+    Uncertainty,
+    RankedViews { request: u64 },
 }
 
 /// What one solve gives the UI. Immutable; replaced as a whole.
@@ -119,6 +179,7 @@ pub struct Worker {
     commands: Sender<Command>,
     snapshot: Arc<ArcSwap<Snapshot>>,
     bin_updates: Receiver<Vec<BinUpdate>>,
+    analyses: Receiver<Analysis>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -127,12 +188,15 @@ impl Worker {
     pub fn spawn(policy: Policy, regularization: Regularization) -> Self {
         let (commands, inbox) = unbounded();
         let (updates_out, bin_updates) = unbounded();
+        let (analyses_out, analyses) = unbounded();
         let snapshot = Arc::new(ArcSwap::from_pointee(Snapshot::default()));
         let published = snapshot.clone();
         let thread = std::thread::Builder::new()
             .name("burnish-worker".into())
             .spawn(move || {
+                let jobs = spawn_analysis(analyses_out);
                 let mut state = WorkerState::new(policy, regularization, published, updates_out);
+                state.jobs = Some(jobs);
                 state.run(inbox);
             })
             .expect("spawning the worker thread");
@@ -140,6 +204,7 @@ impl Worker {
             commands,
             snapshot,
             bin_updates,
+            analyses,
             thread: Some(thread),
         }
     }
@@ -163,6 +228,16 @@ impl Worker {
     /// Bin updates published since the last call, oldest first; never blocks.
     pub fn take_bin_updates(&self) -> Vec<BinUpdate> {
         self.bin_updates.try_iter().flatten().collect()
+    }
+
+    /// Answers of the analysis thread since the last call, oldest first; never blocks.
+    pub fn take_analyses(&self) -> Vec<Analysis> {
+        self.analyses.try_iter().collect()
+    }
+
+    /// Waits up to `timeout` for the next answer of the analysis thread (tests, benchmarks).
+    pub fn wait_analysis(&self, timeout: Duration) -> Option<Analysis> {
+        self.analyses.recv_timeout(timeout).ok()
     }
 
     /// Blocks until every command sent so far is processed and returns the snapshot that
@@ -208,6 +283,8 @@ struct WorkerState {
     last_coefficients: Arc<Vec<[f64; 3]>>,
     /// Kept as a table so that a later basis gets its own projection.
     start_material: Option<Arc<SymTable>>,
+    /// The analysis thread's inbox.
+    jobs: Option<Sender<Job>>,
 }
 
 impl WorkerState {
@@ -230,6 +307,7 @@ impl WorkerState {
             last_stats: SolveStats::default(),
             last_coefficients: Arc::new(Vec::new()),
             start_material: None,
+            jobs: None,
         }
     }
 
@@ -247,6 +325,7 @@ impl WorkerState {
             let batch_commands = batch.len();
             let mut changes = Vec::new();
             let mut syncs = Vec::new();
+            let mut requests = Vec::new();
             let mut oldest_input: Option<Instant> = None;
             let mut resolve = false;
             // Changes before a basis install are already in the new solver's first build.
@@ -262,6 +341,9 @@ impl WorkerState {
                         self.apply_edits(view, &edits, &mut changes);
                     }
                     Command::Sync(reply) => syncs.push(reply),
+                    request @ (Command::Predict { .. }
+                    | Command::EstimateUncertainty
+                    | Command::RankViews { .. }) => requests.push(request),
                     Command::SetBasis(basis) => {
                         self.install_basis(basis);
                         solver_start = changes.len();
@@ -297,6 +379,10 @@ impl WorkerState {
                     batch_commands,
                     oldest_input,
                 );
+            }
+            // After the batch's solve: the answers include everything sent before the request.
+            for request in requests {
+                self.dispatch(request);
             }
             for reply in syncs {
                 let _ = reply.send(self.version);
@@ -342,10 +428,58 @@ impl WorkerState {
             | Command::Sync(_)
             | Command::SetBasis(_)
             | Command::SetStartMaterial(_)
-            | Command::SetRegularization(_) => {
+            | Command::SetRegularization(_)
+            | Command::Predict { .. }
+            | Command::EstimateUncertainty
+            | Command::RankViews { .. } => {
                 unreachable!("handled in the batch loop")
             }
         }
+    }
+
+    /// Hands an analysis request to the analysis thread with a copy of what it needs, or
+    /// answers at once that there is no basis yet.
+    fn dispatch(&mut self, request: Command) {
+        let Some(jobs) = &self.jobs else { return };
+        let version = self.version;
+        let job = match (request, &self.solver) {
+            (Command::Predict { view, gbuffer }, Some(solver)) => Job::Predict {
+                view,
+                version,
+                gbuffer,
+                basis: solver.basis().clone(),
+                coefficients: self.last_coefficients.clone(),
+            },
+            (Command::EstimateUncertainty, Some(solver)) => Job::Uncertainty {
+                version,
+                solver: Box::new(solver.clone()),
+                coefficients: self.last_coefficients.clone(),
+            },
+            (
+                Command::RankViews {
+                    request,
+                    base,
+                    object,
+                    candidates,
+                },
+                Some(solver),
+            ) => Job::Rank {
+                request,
+                version,
+                solver: Box::new(solver.clone()),
+                base,
+                object,
+                candidates,
+                painted: self.sparse.observed().map(|(pair, _)| pair).collect(),
+            },
+            (request, None) => Job::NoBasis(match request {
+                Command::Predict { view, .. } => AnalysisKind::Prediction { view },
+                Command::RankViews { request, .. } => AnalysisKind::RankedViews { request },
+                _ => AnalysisKind::Uncertainty,
+            }),
+            _ => unreachable!("only analysis requests are dispatched"),
+        };
+        let _ = jobs.send(job);
     }
 
     /// Re-derives every sample of a view from its painted pixels (after removing them).
@@ -516,5 +650,111 @@ fn set_pixel(
             }
         }
         None => sparse.remove_sample(key, changes),
+    }
+}
+
+/// An analysis request with its own copy of the state it needs.
+enum Job {
+    Predict {
+        view: ViewId,
+        version: u64,
+        gbuffer: Arc<GBuffer>,
+        basis: Arc<Basis>,
+        coefficients: Arc<Vec<[f64; 3]>>,
+    },
+    Uncertainty {
+        version: u64,
+        solver: Box<Solver>,
+        coefficients: Arc<Vec<[f64; 3]>>,
+    },
+    Rank {
+        request: u64,
+        version: u64,
+        solver: Box<Solver>,
+        base: Box<Scene>,
+        object: Arc<Object>,
+        candidates: usize,
+        painted: std::collections::BTreeSet<u32>,
+    },
+    NoBasis(AnalysisKind),
+}
+
+/// Starts the analysis thread; it ends when the returned sender (the worker's) is dropped.
+fn spawn_analysis(out: Sender<Analysis>) -> Sender<Job> {
+    let (jobs, inbox) = unbounded::<Job>();
+    std::thread::Builder::new()
+        .name("burnish-analysis".into())
+        .spawn(move || {
+            while let Ok(first) = inbox.recv() {
+                let mut batch = vec![first];
+                batch.extend(inbox.try_iter());
+                // Only the newest uncertainty request is worth its second of work.
+                let newest_uncertainty = batch
+                    .iter()
+                    .rposition(|j| matches!(j, Job::Uncertainty { .. }));
+                for (i, job) in batch.into_iter().enumerate() {
+                    if matches!(job, Job::Uncertainty { .. }) && Some(i) != newest_uncertainty {
+                        continue;
+                    }
+                    if out.send(run_job(job)).is_err() {
+                        return;
+                    }
+                }
+            }
+        })
+        .expect("spawning the analysis thread");
+    jobs
+}
+
+fn run_job(job: Job) -> Analysis {
+    match job {
+        Job::Predict {
+            view,
+            version,
+            gbuffer,
+            basis,
+            coefficients,
+        } => {
+            let table = Reconstruction::new(basis, &coefficients).materialize();
+            Analysis::Prediction {
+                view,
+                version,
+                image: render_table(&gbuffer, &table),
+                gbuffer,
+            }
+        }
+        Job::Uncertainty {
+            version,
+            solver,
+            coefficients,
+        } => {
+            let reconstruction = Reconstruction::new(solver.basis().clone(), &coefficients);
+            let table = solver.posterior().table_std_dev(&reconstruction);
+            // Every channel's deviation is the same mapped-domain deviation times that
+            // channel's slope, so the luminance's deviation is their weighted sum.
+            let std_dev = table
+                .pairs()
+                .iter()
+                .map(|sd| (0.2126 * sd[0] + 0.7152 * sd[1] + 0.0722 * sd[2]).min(f32::MAX))
+                .collect();
+            Analysis::Uncertainty { version, std_dev }
+        }
+        Job::Rank {
+            request,
+            version,
+            solver,
+            base,
+            object,
+            candidates,
+            painted,
+        } => {
+            let scenes = candidate_scenes(&base, candidates);
+            Analysis::RankedViews {
+                request,
+                version,
+                views: rank_views(&solver, &object, &scenes, &painted),
+            }
+        }
+        Job::NoBasis(what) => Analysis::NoBasis { what },
     }
 }

@@ -1578,3 +1578,62 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
         "view 1 stays within tolerance (median {median}, 90th percentile {p90})"
     );
 }
+
+/// "Suggest next view" ranks candidate views off the UI thread and adds the best as a new
+/// view, one of the candidates `burnish suggest` ranks and not a copy of view 1; the table
+/// tab's "uncertain" overlay asks for the posterior's standard deviation once a stroke has
+/// ended, one value per pair, smaller where the paintings observed the table.
+#[test]
+fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated() {
+    let mut harness = open_app(config());
+    stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+    settle(&mut harness);
+    harness.state_mut().perform(Action::SuggestView);
+    let wait = |harness: &mut Harness<'static, BurnishApp>,
+                what: &str,
+                pending: &dyn Fn(&BurnishApp) -> bool| {
+        let deadline = std::time::Instant::now() + Duration::from_secs(180);
+        while pending(harness.state()) {
+            assert!(std::time::Instant::now() < deadline, "no {what} arrived");
+            std::thread::sleep(Duration::from_millis(20));
+            harness.step();
+        }
+    };
+    wait(&mut harness, "ranking", &|app| app.suggestion_pending());
+    settle(&mut harness);
+    let app = harness.state();
+    assert_eq!(app.views.len(), 2);
+    assert_eq!(app.active, 1);
+    let (base, suggested) = (&app.views[0].scene, &app.views[1].scene);
+    let candidates = burnish::next_view::candidate_scenes(base, burnish::app::SUGGEST_CANDIDATES);
+    assert!(candidates.contains(suggested), "{suggested:?}");
+    assert_ne!(suggested, base);
+    assert!(
+        app.notices
+            .iter()
+            .any(|n| n.text.starts_with("suggested view:")),
+        "the suggestion is reported"
+    );
+
+    harness.state_mut().preview_tab = PreviewTab::Table;
+    harness
+        .state_mut()
+        .preview_state_mut()
+        .table_overlays
+        .uncertain = true;
+    harness.run_steps(2);
+    wait(&mut harness, "uncertainty", &|app| {
+        app.uncertainty_pending() || app.preview_state().uncertainty.is_none()
+    });
+    let app = harness.state();
+    let sigma = app.preview_state().uncertainty.clone().unwrap();
+    assert_eq!(sigma.len(), burnish::table::PAIRS);
+    assert!(sigma.iter().all(|s| s.is_finite() && *s >= 0.0));
+    let mean_of = |pairs: &mut dyn Iterator<Item = usize>| {
+        let (sum, n) = pairs.fold((0.0f64, 0usize), |(s, n), p| (s + sigma[p] as f64, n + 1));
+        sum / n as f64
+    };
+    let observed = mean_of(&mut app.observed.keys().map(|&p| p as usize));
+    let all = mean_of(&mut (0..sigma.len()));
+    assert!(observed < all, "observed bins {observed} against all {all}");
+}

@@ -36,6 +36,9 @@ pub enum Action {
     /// Back to the database's mean material as the prior mean.
     ClearStart,
     AddView,
+    /// Rank candidate views by what painting them would teach (off the UI thread) and add
+    /// the best when the ranking arrives.
+    SuggestView,
     /// Put a render of the current BRDF under the active view's paint.
     StartFromCurrentBrdf,
     Undo,
@@ -83,6 +86,10 @@ impl BurnishApp {
                     None => Scene::default(),
                 };
                 self.add_view(scene)
+            }
+            Action::SuggestView => {
+                self.suggest_view();
+                Ok(())
             }
             Action::StartFromCurrentBrdf => {
                 self.start_from_current_brdf(self.active);
@@ -604,6 +611,9 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .clicked()
             {
                 app.queue(Action::AddView);
+            }
+            if ui.button("Suggest next view").clicked() {
+                app.queue(Action::SuggestView);
             }
             ui.checkbox(
                 &mut app.show_overlay,

@@ -145,7 +145,17 @@ pub struct BurnishApp {
     /// New views whose canvas waits for the prediction of the current BRDF; they give no
     /// samples until it arrives (or the worker says there is no basis to predict with).
     awaiting_prediction: HashSet<ViewId>,
+    /// The ranking of candidate views asked for by "Suggest next view", until it arrives.
+    pending_suggestion: Option<u64>,
+    next_request: u64,
+    /// The snapshot version the preview's uncertainty was estimated for, and whether an
+    /// estimate is on its way.
+    uncertainty_version: Option<u64>,
+    uncertainty_pending: bool,
 }
+
+/// Candidate views "Suggest next view" ranks (as `burnish suggest` does by default).
+pub const SUGGEST_CANDIDATES: usize = 48;
 
 /// The basis the settings ask for: the default database at its size, K components.
 pub fn basis_spec(settings: &BasisSettings) -> BasisSpec {
@@ -244,6 +254,10 @@ impl BurnishApp {
             pending_actions: Vec::new(),
             start_material: None,
             awaiting_prediction: HashSet::new(),
+            pending_suggestion: None,
+            next_request: 0,
+            uncertainty_version: None,
+            uncertainty_pending: false,
         };
         for e in preset_errors {
             app.notify_error(format!("brush preset skipped: {e}"));
@@ -423,10 +437,99 @@ impl BurnishApp {
                 }
                 self.notify("no BRDF to predict yet: the view shows the guide");
             }
-            Analysis::Uncertainty { .. }
-            | Analysis::RankedViews { .. }
-            | Analysis::NoBasis { .. } => {}
+            Analysis::Uncertainty { version, std_dev } => {
+                self.uncertainty_pending = false;
+                self.uncertainty_version = Some(version);
+                self.preview_state.uncertainty = Some(std_dev);
+            }
+            Analysis::NoBasis {
+                what: AnalysisKind::Uncertainty,
+            } => self.uncertainty_pending = false,
+            Analysis::RankedViews { request, views, .. } => {
+                if self.pending_suggestion != Some(request) {
+                    return;
+                }
+                self.pending_suggestion = None;
+                let Some(best) = views.into_iter().next() else {
+                    self.notify("no candidate view sees the object");
+                    return;
+                };
+                let light = &best.scene.light;
+                let message = format!(
+                    "suggested view: light {:.0}° elevation, {:.0}° azimuth, camera yaw {:.0}°, \
+                     pitch {:.0}°; {} of its {} bins are new",
+                    light.elevation_deg,
+                    light.azimuth_deg,
+                    best.scene.camera.yaw_deg,
+                    best.scene.camera.pitch_deg,
+                    best.new_bins,
+                    best.bins
+                );
+                match self.add_view(best.scene) {
+                    Ok(()) => self.notify(message),
+                    Err(e) => self.notify_error(e.to_string()),
+                }
+            }
+            Analysis::NoBasis {
+                what: AnalysisKind::RankedViews { request },
+            } => {
+                if self.pending_suggestion == Some(request) {
+                    self.pending_suggestion = None;
+                    self.notify_error("no views to suggest until the basis is ready");
+                }
+            }
         }
+    }
+
+    /// Asks the worker to rank candidate views around the active one; the best is added
+    /// when the answer arrives.
+    pub fn suggest_view(&mut self) {
+        if self.basis.is_none() {
+            self.notify_error("no views to suggest until the basis is ready");
+            return;
+        }
+        let Some(doc) = self.active_view() else {
+            return;
+        };
+        let (base, object) = (Box::new(doc.scene.clone()), doc.object.clone());
+        let request = self.next_request;
+        self.next_request += 1;
+        self.worker.send(Command::RankViews {
+            request,
+            base,
+            object,
+            candidates: SUGGEST_CANDIDATES,
+        });
+        self.pending_suggestion = Some(request);
+        self.notify(format!(
+            "ranking {SUGGEST_CANDIDATES} candidate views by what they would teach…"
+        ));
+    }
+
+    /// Whether a "Suggest next view" ranking is still on its way.
+    pub fn suggestion_pending(&self) -> bool {
+        self.pending_suggestion.is_some()
+    }
+
+    /// Asks for the table's uncertainty when the table tab's overlay shows it and the BRDF
+    /// changed since the last estimate, once a stroke has ended (it takes about a second).
+    fn request_uncertainty(&mut self) {
+        let wanted = self.preview_state.table_overlays.uncertain;
+        if !wanted
+            || self.uncertainty_pending
+            || self.basis.is_none()
+            || self.canvas_view.is_stroking()
+            || self.uncertainty_version == Some(self.snapshot.version)
+        {
+            return;
+        }
+        self.worker.send(Command::EstimateUncertainty);
+        self.uncertainty_pending = true;
+    }
+
+    /// Whether an uncertainty estimate is on its way.
+    pub fn uncertainty_pending(&self) -> bool {
+        self.uncertainty_pending
     }
 
     /// Sets what the unpainted pixels of the view at `index` say; the worker re-derives its
@@ -520,6 +623,7 @@ impl BurnishApp {
         if snapshot.version != self.snapshot.version {
             self.snapshot = snapshot;
         }
+        self.request_uncertainty();
     }
 
     fn poll_basis(&mut self) {

@@ -112,7 +112,7 @@ pub struct PreviewState {
     table_window: TableWindow,
     table: Option<TableCache>,
     /// Per unordered pair, the standard deviation of ρ, when the engine estimates one; the
-    /// table tab's "uncertain" overlay draws it. (The solver does not provide it yet.)
+    /// table tab's "uncertain" overlay draws it, estimated by the worker's analysis thread.
     pub uncertainty: Option<Arc<[f32]>>,
     /// The readout under the pointer in the table tab, as shown.
     pub table_readout: Option<String>,
@@ -895,11 +895,14 @@ fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             .on_hover_text("Bins the paintings reached (green)");
         ui.checkbox(&mut o.inconsistent, "inconsistent")
             .on_hover_text("Bins where views or strokes disagree (red)");
-        ui.add_enabled_ui(has_uncertainty, |ui| {
-            ui.checkbox(&mut o.uncertain, "uncertain")
-                .on_hover_text("Bins whose standard deviation is large against ρ (magenta)")
-                .on_disabled_hover_text("The solver does not estimate a per-bin uncertainty yet");
-        });
+        ui.checkbox(&mut o.uncertain, "uncertain").on_hover_text(
+            "Bins whose posterior standard deviation is large against ρ (magenta): where \
+             the BRDF is guessed rather than painted. Estimated in the background when a \
+             stroke ends",
+        );
+        if o.uncertain && !has_uncertainty {
+            ui.spinner();
+        }
     });
     if !has_reference {
         app.preview_state.table_source = TableSource::Reconstruction;

@@ -55,9 +55,21 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
             }
         });
     }
-    if ui.button("+ Add view").clicked() {
-        app.queue(Action::AddView);
-    }
+    ui.horizontal(|ui| {
+        if ui.button("+ Add view").clicked() {
+            app.queue(Action::AddView);
+        }
+        if ui
+            .button("Suggest next view")
+            .on_hover_text(
+                "Rank candidate lights and cameras by how much painting them would shrink \
+                 the reconstruction's uncertainty, and add the best",
+            )
+            .clicked()
+        {
+            app.queue(Action::SuggestView);
+        }
+    });
     if let Some(doc) = app.active_view() {
         let mut rule = doc.unpainted;
         ui.horizontal(|ui| {

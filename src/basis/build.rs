@@ -1,7 +1,8 @@
 //! Building the basis: the leading principal components of the mapped database by randomized
 //! subspace iteration (Halko, Martinsson & Tropp 2011), streamed.
 //!
-//! The database is never held: every pass over it regenerates its materials (they depend on
+//! A database that fits in [`KEEP_BUDGET_BYTES`] is tabulated once and held between passes;
+//! a larger one is never held: every pass regenerates its materials (they depend on
 //! (seed, index) alone), a batch at a time, so memory does not grow with the database's size.
 //! Pass 1 gathers each entry's mean, spread and range and the sketch Y = ÃΩ; every further
 //! pass computes Z = ÃᵀQ for the current orthonormal range Q and, but for the last,
@@ -148,13 +149,13 @@ fn block_range(b: usize) -> std::ops::Range<usize> {
 }
 
 /// One batch of materials, mapped: `tables[j][pair][channel]` = ln(ρc + ε).
-struct Batch {
+struct Batch<'t> {
     /// Index of the batch's first observation column (3 per material).
     first_column: usize,
-    tables: Vec<Vec<[f32; 3]>>,
+    tables: Vec<&'t [[f32; 3]]>,
 }
 
-impl Batch {
+impl Batch<'_> {
     fn columns(&self) -> usize {
         3 * self.tables.len()
     }
@@ -175,34 +176,71 @@ impl Batch {
     }
 }
 
-/// Runs `work` on every batch of the database in order, tabulating each batch in parallel.
-fn for_each_batch(
-    source: MaterialSource,
+/// Mapped tables held between passes up to this many bytes (the default 300-material
+/// database takes 4.7 GB): tabulating is most of a pass's cost, so a database that fits is
+/// tabulated once; a larger one is regenerated on every pass and memory stays flat.
+pub const KEEP_BUDGET_BYTES: usize = 6 << 30;
+
+/// The database as the passes read it: regenerated from `source` on every pass, or kept
+/// from the first when `keep` is set.
+struct Database<'a> {
+    source: MaterialSource<'a>,
     size: usize,
-    stage: &'static str,
-    progress: &(dyn Fn(BuildProgress) + Sync),
-    mut work: impl FnMut(&Batch),
-) {
-    progress(BuildProgress {
-        stage,
-        done: 0,
-        total: size,
-    });
-    for start in (0..size).step_by(MATERIAL_BATCH) {
-        let end = (start + MATERIAL_BATCH).min(size);
-        let tables: Vec<Vec<[f32; 3]>> = (start..end)
-            .into_par_iter()
-            .map(|i| log_table(source(i).as_ref()))
-            .collect();
-        work(&Batch {
-            first_column: 3 * start,
-            tables,
-        });
+    keep: bool,
+    kept: Vec<Vec<[f32; 3]>>,
+}
+
+impl<'a> Database<'a> {
+    fn new(source: MaterialSource<'a>, size: usize, keep: bool) -> Self {
+        Self {
+            source,
+            size,
+            keep,
+            kept: Vec::new(),
+        }
+    }
+
+    /// Runs `work` on every batch of the database in order, tabulating each batch in
+    /// parallel unless it was kept. The values are the same either way.
+    fn for_each_batch(
+        &mut self,
+        stage: &'static str,
+        progress: &(dyn Fn(BuildProgress) + Sync),
+        mut work: impl FnMut(&Batch),
+    ) {
+        let size = self.size;
         progress(BuildProgress {
             stage,
-            done: end,
+            done: 0,
             total: size,
         });
+        for start in (0..size).step_by(MATERIAL_BATCH) {
+            let end = (start + MATERIAL_BATCH).min(size);
+            if self.kept.len() >= end {
+                work(&Batch {
+                    first_column: 3 * start,
+                    tables: self.kept[start..end].iter().map(Vec::as_slice).collect(),
+                });
+            } else {
+                let source = self.source;
+                let tables: Vec<Vec<[f32; 3]>> = (start..end)
+                    .into_par_iter()
+                    .map(|i| log_table(source(i).as_ref()))
+                    .collect();
+                work(&Batch {
+                    first_column: 3 * start,
+                    tables: tables.iter().map(Vec::as_slice).collect(),
+                });
+                if self.keep {
+                    self.kept.extend(tables);
+                }
+            }
+            progress(BuildProgress {
+                stage,
+                done: end,
+                total: size,
+            });
+        }
     }
 }
 
@@ -340,6 +378,17 @@ pub fn build_basis_from(
     spec: &BasisSpec,
     progress: &(dyn Fn(BuildProgress) + Sync),
 ) -> Basis {
+    let bytes = spec.database.size * PAIRS * std::mem::size_of::<[f32; 3]>();
+    build(source, spec, progress, bytes <= KEEP_BUDGET_BYTES)
+}
+
+/// [`build_basis_from`], holding the mapped database between passes when `keep` is set.
+fn build(
+    source: MaterialSource,
+    spec: &BasisSpec,
+    progress: &(dyn Fn(BuildProgress) + Sync),
+    keep: bool,
+) -> Basis {
     assert!(
         (1..=BasisSpec::MAX_COMPONENTS).contains(&spec.components),
         "K must be in 1..={}",
@@ -354,11 +403,12 @@ pub fn build_basis_from(
     let weights = row_weights();
     let passes = 1 + spec.power_iterations.clamp(1, PASS_NAMES.len() - 1);
     let omega = gaussian_matrix(n, l, spec.database.seed);
+    let mut database = Database::new(source, size, keep);
 
     // Pass 1: per-pair statistics, and the uncentred sketch ÃΩ (centred afterwards).
     let mut stats = EntryStats::new();
     let mut y = Mat::<f64>::zeros(PAIRS, l);
-    for_each_batch(source, size, PASS_NAMES[0], progress, |batch| {
+    database.for_each_batch(PASS_NAMES[0], progress, |batch| {
         let cols = batch.columns();
         let omega_b = omega.as_ref().subrows(batch.first_column, cols);
         accumulate_product(&mut y, batch, omega_b, &weights, None);
@@ -422,7 +472,7 @@ pub fn build_basis_from(
         } else {
             Mat::<f64>::zeros(PAIRS, l)
         };
-        for_each_batch(source, size, PASS_NAMES[pass], progress, |batch| {
+        database.for_each_batch(PASS_NAMES[pass], progress, |batch| {
             let z = batch_transpose_product(batch, q.as_ref(), &weights, &stats.mean);
             if last {
                 z_all
@@ -532,4 +582,29 @@ pub fn build_basis_from(
         total: size,
     });
     Basis::from_owned(k, n, variances, residual_variance, data)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Holding the tables between passes changes the cost, never the basis.
+    #[test]
+    fn a_kept_database_gives_the_streamed_basis_bit_for_bit() {
+        let spec = BasisSpec {
+            database: DatabaseSpec { seed: 11, size: 20 },
+            components: 4,
+            oversampling: 4,
+            power_iterations: 2,
+        };
+        let seed = spec.database.seed;
+        let source = move |i: usize| material(seed, i).brdf;
+        let streamed = build(&source, &spec, &|_| {}, false);
+        let kept = build(&source, &spec, &|_| {}, true);
+        assert_eq!(streamed.variances(), kept.variances());
+        for pair in [0, 1234, PAIRS / 2, PAIRS - 1] {
+            assert_eq!(streamed.row(pair), kept.row(pair), "pair {pair}");
+        }
+        assert_eq!(streamed.residuals(), kept.residuals());
+    }
 }

@@ -116,6 +116,9 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
     );
 }
 
+/// One figure of an evaluation.
+type Metric = fn(&Evaluation) -> f64;
+
 fn relative_rmse(e: &Evaluation) -> f64 {
     e.relative_rmse
 }
@@ -184,7 +187,7 @@ fn every_added_view_helps_materials_unlike_the_database() {
     for (views, pair) in by_views.windows(2).enumerate() {
         let (before, after) = (&pair[0], &pair[1]);
         let step = format!("{} → {} views", views + 1, views + 2);
-        let metrics: [(&str, fn(&Evaluation) -> f64); 2] =
+        let metrics: [(&str, Metric); 2] =
             [("relative RMSE", relative_rmse), ("log RMSE", log_rmse)];
         for (name, field) in metrics {
             assert!(

@@ -76,8 +76,8 @@ impl Brdf for BlinnPhong {
     }
 }
 
-/// One generalised cosine lobe of Lafortune et al. 1997: ρ·max(0, C_x l_x v_x + C_y l_y v_y
-/// + C_z l_z v_z)^n. C_x = C_y < 0 < C_z is a specular lobe (off-specular toward grazing when
+/// One generalised cosine lobe of Lafortune et al. 1997:
+/// ρ·max(0, C_x l_x v_x + C_y l_y v_y + C_z l_z v_z)^n. C_x = C_y < 0 < C_z is a specular lobe (off-specular toward grazing when
 /// |C_x| > C_z); C_x = C_y > 0 a retro-reflective one; C_x ≠ C_y anisotropic.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LafortuneLobe {

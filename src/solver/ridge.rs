@@ -343,7 +343,7 @@ impl Solver {
             self.model.brightness_floor,
             self.brightness_reference,
         );
-        if beta == 0.0 || !(mean > 0.0) {
+        if beta == 0.0 || mean.is_nan() || mean <= 0.0 {
             return m;
         }
         let b = ((brightness + kappa * mean) / ((1.0 + kappa) * mean)).powf(beta);
@@ -445,7 +445,7 @@ impl Solver {
             return 0.0;
         }
         let mean = self.brightness_sum / self.observed.len() as f64;
-        if !(mean > 1e-12) {
+        if mean.is_nan() || mean <= 1e-12 {
             return 0.0;
         }
         let step = BRIGHTNESS_REFERENCE_STEP_LOG2;
@@ -662,7 +662,7 @@ impl Solver {
             let change = (&next - &*x).norm_max();
             let scale = next.norm_max().max(1.0);
             *x = next;
-            if !(change > TOLERANCE * scale) {
+            if change.is_nan() || change <= TOLERANCE * scale {
                 break;
             }
         }

@@ -389,6 +389,7 @@ fn build(
     progress: &(dyn Fn(BuildProgress) + Sync),
     keep: bool,
 ) -> Basis {
+    crate::solver::sequential_dense_algebra();
     assert!(
         (1..=BasisSpec::MAX_COMPONENTS).contains(&spec.components),
         "K must be in 1..={}",

@@ -10,3 +10,13 @@ pub use bands::{BANDS, BandWeights, pair_bands};
 pub use reconstruction::Reconstruction;
 pub use ridge::{DEFAULT_ALPHA, Posterior, PriorModel, Regularization, Solution, Solver};
 pub use sparse::{BinChange, Bound, Bounds, EXACT, Policy, SampleKey, SampleRejected, SparseTable};
+
+/// Runs faer's dense algorithms (the solver's factorisations and eigenvalues, the basis
+/// build's small SVD) on the calling thread, once per process. Its default, rayon with
+/// spinning workers, gains nothing on matrices of a few hundred rows and left those workers
+/// competing with every later rayon loop: the full table took 450 ms after a solve instead of
+/// 70 ms on 2 cores, and a dab's solve paid thread hand-offs.
+pub fn sequential_dense_algebra() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| faer::set_global_parallelism(faer::Par::Seq));
+}

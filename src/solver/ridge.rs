@@ -262,6 +262,7 @@ impl Solver {
             "1 or {BANDS} coefficient sets"
         );
         assert!(model.bands == 1 || (0.0..1.0).contains(&model.band_correlation));
+        super::sequential_dense_algebra();
         let d = model.rows(basis.components());
         Self {
             basis,

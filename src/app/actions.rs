@@ -331,15 +331,19 @@ impl BurnishApp {
         Ok(())
     }
 
-    fn export_table(&mut self, path: &Path, merl: bool) -> crate::Result<()> {
-        let snapshot = self.snapshot.clone();
-        let Some(basis) = snapshot.basis.clone() else {
+    /// The current reconstruction as a full table, for an export to `path`.
+    fn current_table(&self, path: &Path) -> crate::Result<crate::table::SymTable> {
+        let Some(basis) = self.snapshot.basis.clone() else {
             return Err(crate::Error::invalid(
                 path,
                 "the basis is not ready yet; export when the status bar says it is",
             ));
         };
-        let table = Reconstruction::new(basis, &snapshot.coefficients).materialize();
+        Ok(Reconstruction::new(basis, &self.snapshot.coefficients).materialize())
+    }
+
+    fn export_table(&mut self, path: &Path, merl: bool) -> crate::Result<()> {
+        let table = self.current_table(path)?;
         if merl {
             MerlBrdf::from_table(&table).write(path)?;
         } else {
@@ -352,14 +356,7 @@ impl BurnishApp {
     /// Writes the BRDF in any export format; the notice says what the file holds (for the
     /// analytic formats, the fit's error).
     fn export_any(&mut self, path: &Path) -> crate::Result<()> {
-        let snapshot = self.snapshot.clone();
-        let Some(basis) = snapshot.basis.clone() else {
-            return Err(crate::Error::invalid(
-                path,
-                "the basis is not ready yet; export when the status bar says it is",
-            ));
-        };
-        let table = Reconstruction::new(basis, &snapshot.coefficients).materialize();
+        let table = self.current_table(path)?;
         let report = export(path, &table, &ExportOptions::default())?;
         self.notify(format!("BRDF written to {}: {report}", path.display()));
         Ok(())

@@ -577,7 +577,7 @@ fn reconstruct_starts_from_a_material() {
 
     // Where the painting says nothing, the start keeps the material: closer to it overall.
     let read = |p: &Path| burnish::table::exr_file::read_table_exr(p).unwrap();
-    let score = |p: &Path| burnish::cli::eval_cmd::evaluate(&material, &read(p));
+    let score = |p: &Path| burnish::metrics::evaluate(&material, &read(p));
     let (without, with) = (score(&plain), score(&started));
     eprintln!(
         "without a start: {:.1} dB, {:.1}%; from the .bsdf: {:.1} dB, {:.1}%",

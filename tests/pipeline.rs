@@ -4,9 +4,9 @@
 mod common;
 
 use burnish::bench::held_out::{HAND_BUILT, hand_built_materials};
-use burnish::cli::eval_cmd::{Evaluation, evaluate};
 use burnish::materials::database::material;
 use burnish::materials::tabulate;
+use burnish::metrics::{Evaluation, evaluate};
 use burnish::scene::{
     GBuffer, LightSettings, Object, Scene, render_table, samples_from_file, write_image,
 };

@@ -20,10 +20,10 @@ pub mod report;
 pub mod stability;
 
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
-use crate::cli::eval_cmd::evaluate;
 use crate::error::Result;
 use crate::image_io::RgbImage;
 use crate::materials::tabulate;
+use crate::metrics::evaluate;
 use crate::scene::{
     CameraSettings, GBuffer, LightSettings, Object, PaintRange, SampleCounts, SampleSet, Scene,
     render_table, samples_from_image_in, srgb_decode, srgb_encode,

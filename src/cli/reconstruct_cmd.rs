@@ -1,11 +1,11 @@
 //! `burnish reconstruct`: paintings of one or more views → a full BRDF table.
 
-use super::eval_cmd::evaluate;
 use super::scene_cmds::scene_gbuffer;
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::bench::oracle::OracleProjector;
 use crate::export::load_table;
 use crate::materials::database::DatabaseSpec;
+use crate::metrics::evaluate;
 use crate::paint::UnpaintedPixels;
 use crate::scene::{Scene, read_painting, samples_from_file};
 use crate::solver::{BinChange, Policy, Reconstruction, Regularization, Solver, SparseTable};

@@ -521,7 +521,7 @@ pub fn fit(table: &SymTable) -> FitReport {
     }
     model.rotation = model.rotation.rem_euclid(PI);
     let fitted = crate::materials::tabulate(&model);
-    let evaluation = crate::cli::eval_cmd::evaluate(table, &fitted);
+    let evaluation = crate::metrics::evaluate(table, &fitted);
     FitReport {
         model,
         isotropic,

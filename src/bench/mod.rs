@@ -11,6 +11,7 @@
 //! analytic Lambert + anisotropic GGX fit of the same samples.
 
 pub mod analytic_fit;
+pub mod calibrate;
 pub mod error_maps;
 pub mod held_out;
 pub mod live;

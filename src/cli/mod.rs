@@ -4,6 +4,7 @@
 mod app_cmd;
 mod basis_cmd;
 pub mod bench_cmd;
+mod calibrate_cmd;
 pub mod convert_cmd;
 pub mod eval_cmd;
 mod reconstruct_cmd;
@@ -46,6 +47,8 @@ pub enum Command {
     App(app_cmd::AppArgs),
     /// Benchmark: reconstruction error against run time, and the live loop's timings.
     Bench(bench_cmd::BenchArgs),
+    /// Choose the prior's constants by leave-families-out cross-validation on the database.
+    Calibrate(calibrate_cmd::CalibrateArgs),
 }
 
 /// Runs the command line; errors are printed with the file and the problem, exit code 1.
@@ -62,6 +65,7 @@ pub fn run() -> ExitCode {
         #[cfg(feature = "app")]
         Some(Command::App(args)) => app_cmd::run(&args),
         Some(Command::Bench(args)) => bench_cmd::run(&args),
+        Some(Command::Calibrate(args)) => calibrate_cmd::run(&args),
         #[cfg(feature = "app")]
         None => app_cmd::run(&app_cmd::AppArgs::default()),
         // Built without the window: list the verbs.

@@ -7,6 +7,7 @@ use burnish::basis::BasisCache;
 use burnish::bench::analytic_fit::{FitOptions, LambertGgx, fit_lambert_ggx};
 use burnish::bench::held_out::{HELD_OUT_SEED, database_materials, hand_built_materials};
 use burnish::bench::live::LiveOptions;
+use burnish::bench::next_view_trial::TrialOptions;
 use burnish::bench::oracle::OracleProjector;
 use burnish::bench::{BenchOptions, Config, Paint, VIEWS, ldr_round_trip, run_bench};
 use burnish::materials::database::DatabaseSpec;
@@ -178,12 +179,10 @@ fn held_out_materials_are_outside_the_basis_database() {
     );
 }
 
-/// The number after `"key": ` in a one-line JSON object.
+/// The number under `key` in a one-line JSON object.
 fn json_number(json: &str, key: &str) -> Option<f64> {
-    let start = json.find(&format!("\"{key}\": "))? + key.len() + 4;
-    let rest = &json[start..];
-    let end = rest.find([',', '}'])?;
-    rest[..end].trim().parse().ok()
+    let value: serde_json::Value = serde_json::from_str(json).expect("valid JSON");
+    value.get(key)?.as_f64()
 }
 
 #[test]
@@ -218,6 +217,11 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             dab_repeats: 5,
             repeats: 2,
         },
+        next_view: Some(TrialOptions {
+            candidates: 6,
+            random_picks: 2,
+            resolution: 64,
+        }),
         ..BenchOptions::quick(cache)
     };
     let report = run_bench(&options, &|line| eprintln!("{line}")).unwrap();
@@ -234,6 +238,8 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
         "rel_rmse_analytic_fit",
         "rel_rmse_1view_ldr",
         "median_rel_rmse_1view_ldr",
+        "rel_rmse_2view_suggested",
+        "rel_rmse_2view_random",
     ] {
         let value = json_number(&json, key).unwrap_or_else(|| panic!("{key} in {json}"));
         assert!(value.is_finite() && value > 0.0, "{key} = {value}");
@@ -242,6 +248,17 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
         json_number(&json, "dab_solve_ms_p50").unwrap()
             <= json_number(&json, "dab_solve_ms_p95").unwrap()
     );
+    let wins = json_number(&json, "next_view_suggestion_wins").unwrap();
+    assert!((0.0..=1.0).contains(&wins), "{wins}");
+    assert_eq!(report.next_view.len(), 2);
+    for t in &report.next_view {
+        assert_eq!(t.random.len(), 2);
+        // A second view adds bins; it must not wreck the one-view result.
+        assert!(
+            t.suggested.is_finite() && t.suggested < 3.0 * t.one_view,
+            "{t:?}"
+        );
+    }
     // Sparse: paper, the global prior, 2 views, LDR, max policy; plus the oracle and the
     // analytic fit.
     assert_eq!(report.aggregates.len(), 7, "{:?}", report.aggregates);
@@ -265,6 +282,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
     let md = std::fs::read_to_string(out.join("BENCHMARKS.md")).unwrap();
     for needle in [
         "## Numerical stability",
+        "## Next view: suggested against random",
         "burnish bench --test",
         "bench_pareto.png",
         &report.machine.cpu,

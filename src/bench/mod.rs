@@ -15,6 +15,7 @@ pub mod calibrate;
 pub mod error_maps;
 pub mod held_out;
 pub mod live;
+pub mod next_view_trial;
 pub mod oracle;
 pub mod plot;
 pub mod report;
@@ -286,6 +287,9 @@ pub struct BenchOptions {
     /// Where to write an error map per material for the paper's configuration and every view
     /// count (none when `None`).
     pub error_maps: Option<std::path::PathBuf>,
+    /// The suggested-against-random next view trial, on every held-out material (none when
+    /// `None`).
+    pub next_view: Option<next_view_trial::TrialOptions>,
 }
 
 impl BenchOptions {
@@ -317,6 +321,11 @@ impl BenchOptions {
             fit: FitOptions::default(),
             live: live::LiveOptions::full(),
             error_maps: None,
+            next_view: Some(next_view_trial::TrialOptions {
+                candidates: 48,
+                random_picks: 3,
+                resolution: 512,
+            }),
         }
     }
 
@@ -545,6 +554,7 @@ pub fn run_bench(options: &BenchOptions, log: &dyn Fn(&str)) -> Result<BenchRepo
     keys.dedup();
 
     let mut rows = Vec::new();
+    let mut next_view = Vec::new();
     for (i, m) in materials.iter().enumerate() {
         let material_start = Instant::now();
         let truth = tabulate(&*m.brdf);
@@ -600,6 +610,12 @@ pub fn run_bench(options: &BenchOptions, log: &dyn Fn(&str)) -> Result<BenchRepo
         for (&k, projector) in &projectors {
             rows.push(oracle_row(m, &truth, projector, k));
         }
+        if let Some(trial) = options.next_view {
+            let basis = bases.get(p.components, log)?;
+            next_view.push(next_view_trial::trial(
+                &m.name, &truth, &basis, trial, i as u64,
+            ));
+        }
         log(&format!(
             "material {}/{} {}: {:.1} s",
             i + 1,
@@ -622,6 +638,7 @@ pub fn run_bench(options: &BenchOptions, log: &dyn Fn(&str)) -> Result<BenchRepo
         rows,
         live,
         stability,
+        next_view,
         basis_history,
         started.elapsed().as_secs_f64(),
     ))

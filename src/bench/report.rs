@@ -148,36 +148,13 @@ pub struct BenchReport {
     pub aggregates: Vec<Aggregate>,
     pub live: LiveLoop,
     pub stability: Vec<super::stability::StabilityCase>,
+    /// The suggested-against-random next view trial, one entry per material.
+    pub next_view: Vec<super::next_view_trial::NextViewTrial>,
     /// (K, how it came, seconds) for every basis the run used.
     pub bases: Vec<(usize, String, f64)>,
     pub basis_materials: usize,
     pub paper: super::Config,
     pub seconds: f64,
-}
-
-/// A number for JSON: finite, or null.
-fn json_number(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:.6}")
-    } else {
-        "null".into()
-    }
-}
-
-fn json_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for ch in s.chars() {
-        match ch {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(out, "\\u{:04x}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
 }
 
 impl BenchReport {
@@ -187,6 +164,7 @@ impl BenchReport {
         rows: Vec<Row>,
         live: LiveLoop,
         stability: Vec<super::stability::StabilityCase>,
+        next_view: Vec<super::next_view_trial::NextViewTrial>,
         bases: Vec<(usize, String, f64)>,
         seconds: f64,
     ) -> Self {
@@ -199,6 +177,7 @@ impl BenchReport {
             aggregates,
             live,
             stability,
+            next_view,
             bases,
             basis_materials: options.basis_materials,
             paper: options.paper,
@@ -356,32 +335,102 @@ impl BenchReport {
                 "median_rel_rmse_1view_ldr",
                 pick(self.paper_ldr(), |a| a.median_relative_rmse),
             ),
+            (
+                "rel_rmse_2view_suggested",
+                self.next_view_mean(|t| t.suggested),
+            ),
+            (
+                "rel_rmse_2view_random",
+                self.next_view_mean(|t| t.random_mean()),
+            ),
+            ("next_view_suggestion_wins", self.next_view_wins()),
             ("lazy_preview_ms", self.live.lazy_ms),
             ("lazy_preview_entries", self.live.lazy_entries as f64),
             ("seconds", self.seconds),
         ]
     }
 
-    /// One line of JSON with the key figures, the mode and the machine.
+    /// Mean of `figure` over the next-view trial's materials (NaN without the trial).
+    fn next_view_mean(
+        &self,
+        figure: impl Fn(&super::next_view_trial::NextViewTrial) -> f64,
+    ) -> f64 {
+        if self.next_view.is_empty() {
+            return f64::NAN;
+        }
+        self.next_view.iter().map(figure).sum::<f64>() / self.next_view.len() as f64
+    }
+
+    /// Fraction of the trial's materials where the suggested view beats the random ones' mean.
+    fn next_view_wins(&self) -> f64 {
+        self.next_view_mean(|t| f64::from(u8::from(t.suggested < t.random_mean())))
+    }
+
+    fn next_view_section(&self, md: &mut String) {
+        let Some(first) = self.next_view.first() else {
+            return;
+        };
+        let _ = writeln!(md, "## Next view: suggested against random\n");
+        let _ = writeln!(
+            md,
+            "Each held-out material is painted under view 0 (light {}°, {}°), the candidates of \
+             `burnish suggest` are ranked for that painting, and a second view is painted at the \
+             suggestion or at {} candidates drawn at random from the same list. Relative RMSE of \
+             the two-view reconstruction (default prior, HDR paint):\n",
+            super::VIEWS[0].light_elevation_deg,
+            super::VIEWS[0].light_azimuth_deg,
+            first.random.len()
+        );
+        let _ = writeln!(
+            md,
+            "| material | one view | suggested second view | light (el, az), camera (yaw, pitch) | random second view (mean) | random (each) |\n|---|---|---|---|---|---|"
+        );
+        for t in &self.next_view {
+            let each: Vec<String> = t.random.iter().map(|r| format!("{r:.3}")).collect();
+            let v = t.suggested_view;
+            let _ = writeln!(
+                md,
+                "| {} | {:.3} | {:.3} | ({:.0}°, {:.0}°), ({:.0}°, {:.0}°) | {:.3} | {} |",
+                t.material,
+                t.one_view,
+                t.suggested,
+                v[0],
+                v[1],
+                v[2],
+                v[3],
+                t.random_mean(),
+                each.join(", ")
+            );
+        }
+        let _ = writeln!(
+            md,
+            "| **mean** | {:.3} | **{:.3}** | | **{:.3}** | |\n\nThe suggestion beats the random views' mean on {:.0}% of the materials.\n",
+            self.next_view_mean(|t| t.one_view),
+            self.next_view_mean(|t| t.suggested),
+            self.next_view_mean(|t| t.random_mean()),
+            100.0 * self.next_view_wins()
+        );
+    }
+
+    /// One line of JSON with the key figures, the mode and the machine (a figure that is not
+    /// finite is null).
     pub fn json(&self) -> String {
-        let mut out = String::from("{");
-        let _ = write!(
-            out,
-            "\"mode\": {}, \"materials\": {}, ",
-            json_string(self.mode),
-            self.paper().map_or(0, |a| a.materials)
+        let mut object = serde_json::Map::new();
+        object.insert("mode".into(), self.mode.into());
+        object.insert(
+            "materials".into(),
+            self.paper().map_or(0, |a| a.materials).into(),
         );
         for (key, value) in self.key_figures() {
-            let _ = write!(out, "\"{key}\": {}, ", json_number(value));
+            object.insert(key.into(), value.into());
         }
-        let _ = write!(
-            out,
-            "\"machine\": {}, \"load_before\": {}, \"load_after\": {}}}",
-            json_string(&self.machine.describe()),
-            json_string(&self.machine.load_before),
-            json_string(&self.machine.load_after)
+        object.insert("machine".into(), self.machine.describe().into());
+        object.insert(
+            "load_before".into(),
+            self.machine.load_before.clone().into(),
         );
-        out
+        object.insert("load_after".into(), self.machine.load_after.clone().into());
+        serde_json::Value::Object(object).to_string()
     }
 
     /// One row per method and material.
@@ -468,6 +517,7 @@ impl BenchReport {
         );
         self.goals_section(&mut md);
         self.error_section(&mut md);
+        self.next_view_section(&mut md);
         self.live_section(&mut md);
         self.stability_section(&mut md);
         let _ = writeln!(

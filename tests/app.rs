@@ -45,10 +45,10 @@ fn open_app(config: AppConfig) -> Harness<'static, BurnishApp> {
 fn settle(harness: &mut Harness<'static, BurnishApp>) {
     harness.run_steps(2);
     let deadline = std::time::Instant::now() + Duration::from_secs(120);
-    while harness.state().predictions_pending() {
+    while harness.state().predictions_pending() || harness.state().file_jobs_pending() {
         assert!(
             std::time::Instant::now() < deadline,
-            "no prediction arrived"
+            "no prediction arrived, or an export or start did not finish"
         );
         std::thread::sleep(Duration::from_millis(20));
         harness.step();
@@ -1182,7 +1182,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     settle(&mut harness);
     let app = harness.state();
     assert!(app.notices.iter().all(|n| !n.is_error));
-    assert_eq!(app.start_material.as_deref(), Some("start.bsdf"));
+    assert_eq!(app.start_material_name(), Some("start.bsdf"));
     assert_eq!(
         app.preview_state().reference.as_ref().unwrap().name,
         "start.bsdf"
@@ -1223,6 +1223,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
             .state_mut()
             .perform(Action::Export(dir.path().join(name)));
     }
+    settle(&mut harness);
     let app = harness.state();
     assert!(app.notices.iter().all(|n| !n.is_error));
     assert!(RglBsdf::read(&dir.path().join("out.bsdf")).is_ok());
@@ -1247,6 +1248,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     let broken = dir.path().join("broken.bsdf");
     std::fs::write(&broken, b"tensor_file\0 but nothing more").unwrap();
     harness.state_mut().perform(Action::StartFrom(broken));
+    settle(&mut harness);
     assert!(
         harness
             .state()
@@ -1255,12 +1257,12 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
             .any(|n| n.is_error && n.text.contains("broken.bsdf"))
     );
     assert_eq!(
-        harness.state().start_material.as_deref(),
+        harness.state().start_material_name(),
         Some("start.bsdf")
     );
     harness.state_mut().perform(Action::NewSession);
     settle(&mut harness);
-    assert_eq!(harness.state().start_material, None);
+    assert_eq!(harness.state().start_material_name(), None);
     // The start is dropped: the new session's guide pulls the solution back away from the
     // material, as far as a fresh session's.
     let cleared = harness.state().snapshot.coefficients.clone();

@@ -191,7 +191,10 @@ impl BurnishApp {
             let ctx = cc.egui_ctx.clone();
             saver.set_waker(move || ctx.request_repaint());
         }
+        // A session opened by `headless` may have set a reference (its starting material).
+        let reference = app.preview_state.reference.take();
         app.preview_state = preview_panel::PreviewState::new(cc.wgpu_render_state.as_ref());
+        app.preview_state.reference = reference;
         if let Some(e) = app.preview_state.init_error.clone() {
             app.notify_error(format!("preview: {e}"));
         }

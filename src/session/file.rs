@@ -304,8 +304,8 @@ pub(crate) fn write_session(
         }
         if let Some(bytes) = &start_table {
             // Floats barely deflate; storing them costs a checksum instead of a compression.
-            let stored = SimpleFileOptions::default()
-                .compression_method(zip::CompressionMethod::Stored);
+            let stored =
+                SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
             zip.start_file(START_TABLE, stored)
                 .map_err(std::io::Error::other)?;
             zip.write_all(bytes)?;
@@ -756,7 +756,10 @@ mod tests {
         let start = reopened.start.as_ref().expect("the start material is kept");
         assert_eq!(start.name, "gold.binary");
         assert_eq!(start.source, Some(PathBuf::from("/materials/gold.binary")));
-        assert!(start.table.pairs() == table.pairs(), "the table, bit for bit");
+        assert!(
+            start.table.pairs() == table.pairs(),
+            "the table, bit for bit"
+        );
         assert_eq!(reopened, session);
     }
 

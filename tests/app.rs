@@ -1407,6 +1407,8 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         harness
             .state_mut()
             .perform(Action::ExportTable(app_table.clone()));
+        // The table is written in the background.
+        settle(&mut harness);
         assert!(
             error_texts(&harness).is_empty(),
             "{:?}",

@@ -767,12 +767,14 @@ mod tests {
     #[test]
     fn a_damaged_start_table_is_refused_naming_the_entry() {
         let dir = tempfile::tempdir().unwrap();
-        let mut session = Session::default();
-        session.start = Some(StartMaterial {
-            name: "m.exr".into(),
-            source: None,
-            table: Arc::new(start_table()),
-        });
+        let session = Session {
+            start: Some(StartMaterial {
+                name: "m.exr".into(),
+                source: None,
+                table: Arc::new(start_table()),
+            }),
+            ..Session::default()
+        };
         let good = dir.path().join("good.burnish");
         session.save(&good).unwrap();
         let mut archive = open_archive(&good).unwrap();

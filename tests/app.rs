@@ -45,10 +45,10 @@ fn open_app(config: AppConfig) -> Harness<'static, BurnishApp> {
 fn settle(harness: &mut Harness<'static, BurnishApp>) {
     harness.run_steps(2);
     let deadline = std::time::Instant::now() + Duration::from_secs(120);
-    while harness.state().predictions_pending() {
+    while harness.state().predictions_pending() || harness.state().file_jobs_pending() {
         assert!(
             std::time::Instant::now() < deadline,
-            "no prediction arrived"
+            "no prediction arrived, or an export or start did not finish"
         );
         std::thread::sleep(Duration::from_millis(20));
         harness.step();
@@ -1182,7 +1182,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     settle(&mut harness);
     let app = harness.state();
     assert!(app.notices.iter().all(|n| !n.is_error));
-    assert_eq!(app.start_material.as_deref(), Some("start.bsdf"));
+    assert_eq!(app.start_material_name(), Some("start.bsdf"));
     assert_eq!(
         app.preview_state().reference.as_ref().unwrap().name,
         "start.bsdf"
@@ -1223,6 +1223,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
             .state_mut()
             .perform(Action::Export(dir.path().join(name)));
     }
+    settle(&mut harness);
     let app = harness.state();
     assert!(app.notices.iter().all(|n| !n.is_error));
     assert!(RglBsdf::read(&dir.path().join("out.bsdf")).is_ok());
@@ -1247,6 +1248,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     let broken = dir.path().join("broken.bsdf");
     std::fs::write(&broken, b"tensor_file\0 but nothing more").unwrap();
     harness.state_mut().perform(Action::StartFrom(broken));
+    settle(&mut harness);
     assert!(
         harness
             .state()
@@ -1254,13 +1256,10 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
             .iter()
             .any(|n| n.is_error && n.text.contains("broken.bsdf"))
     );
-    assert_eq!(
-        harness.state().start_material.as_deref(),
-        Some("start.bsdf")
-    );
+    assert_eq!(harness.state().start_material_name(), Some("start.bsdf"));
     harness.state_mut().perform(Action::NewSession);
     settle(&mut harness);
-    assert_eq!(harness.state().start_material, None);
+    assert_eq!(harness.state().start_material_name(), None);
     // The start is dropped: the new session's guide pulls the solution back away from the
     // material, as far as a fresh session's.
     let cleared = harness.state().snapshot.coefficients.clone();
@@ -1408,6 +1407,8 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         harness
             .state_mut()
             .perform(Action::ExportTable(app_table.clone()));
+        // The table is written in the background.
+        settle(&mut harness);
         assert!(
             error_texts(&harness).is_empty(),
             "{:?}",
@@ -1643,4 +1644,259 @@ fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated
     let observed = mean_of(&mut app.observed.keys().map(|&p| p as usize));
     let all = mean_of(&mut (0..sigma.len()));
     assert!(observed < all, "observed bins {observed} against all {all}");
+}
+
+/// The pixels of the window image inside `rect` (points; the harness draws at 1 pixel per
+/// point), rows from the top.
+fn pixels_in(image: &image::RgbaImage, rect: egui::Rect) -> Vec<[u8; 4]> {
+    let mut out = Vec::new();
+    for y in rect.min.y.round() as u32..rect.max.y.round() as u32 {
+        for x in rect.min.x.round() as u32..rect.max.x.round() as u32 {
+            if x < image.width() && y < image.height() {
+                out.push(image.get_pixel(x, y).0);
+            }
+        }
+    }
+    out
+}
+
+/// Compare mode: disabled (saying why) with nothing to compare with; with a material unlike
+/// the reconstruction its pane differs from the reconstruction's and the difference view
+/// lights up; with the reconstruction's own table as the material, the difference view is
+/// black on the object.
+#[test]
+fn compare_mode_shows_the_material_beside_the_reconstruction_and_their_difference() {
+    use egui_kittest::kittest::NodeT;
+    let dir = tempfile::tempdir().unwrap();
+    let mut harness = open_app(config());
+    assert!(
+        harness
+            .get_by_label("Compare")
+            .accesskit_node()
+            .is_disabled(),
+        "nothing to compare with yet"
+    );
+    assert!(harness.state().preview_state().compare_rects.is_none());
+
+    harness
+        .state_mut()
+        .perform(Action::LoadReference(reference_table(dir.path())));
+    harness.run_steps(2);
+    harness.get_by_label("Compare").click();
+    settle(&mut harness);
+    assert!(harness.state().preview_state().compare);
+    assert!(
+        harness.state().notices.iter().all(|n| !n.is_error),
+        "{:?}",
+        harness.state().notices
+    );
+    let rects = harness
+        .state()
+        .preview_state()
+        .compare_rects
+        .expect("the compare panes were laid out");
+    assert_eq!(
+        rects[0].size(),
+        rects[1].size(),
+        "side by side, the same size"
+    );
+    let image = harness.render().expect("the window renders");
+    let [reconstruction, material, difference] = rects.map(|r| pixels_in(&image, r));
+    let background = difference[0];
+    let is_background = |p: &[u8; 4]| (0..3).all(|c| p[c].abs_diff(background[c]) <= 2);
+    let object = difference.iter().filter(|p| !is_background(p)).count();
+    assert!(
+        object > difference.len() / 5,
+        "the object fills the difference pane"
+    );
+    assert!(
+        differing(&reconstruction, &material) > object / 2,
+        "a glossy orange reference looks unlike the grey reconstruction"
+    );
+    let lit = difference
+        .iter()
+        .filter(|p| !is_background(p) && p[..3].iter().any(|&c| c > 40))
+        .count();
+    assert!(
+        lit > object / 2,
+        "the difference shows where they differ: {lit} of {object} object pixels"
+    );
+
+    // The reconstruction's own table as the material: no difference anywhere on the object.
+    let same = dir.path().join("same.exr");
+    harness
+        .state_mut()
+        .perform(Action::ExportTable(same.clone()));
+    settle(&mut harness);
+    harness.state_mut().perform(Action::LoadReference(same));
+    settle(&mut harness);
+    let image = harness.render().expect("the window renders");
+    let [reconstruction, material, difference] = rects.map(|r| pixels_in(&image, r));
+    let object: Vec<&[u8; 4]> = difference.iter().filter(|p| !is_background(p)).collect();
+    assert!(object.len() > difference.len() / 5);
+    let coloured = object
+        .iter()
+        .filter(|p| p[..3].iter().any(|&c| c > 12))
+        .count();
+    assert!(
+        coloured * 200 < object.len(),
+        "the same material shows black: {coloured} of {} object pixels are coloured",
+        object.len()
+    );
+    let close = reconstruction
+        .iter()
+        .zip(&material)
+        .filter(|(a, b)| (0..3).all(|c| a[c].abs_diff(b[c]) <= 2))
+        .count();
+    assert!(
+        close * 100 > 99 * reconstruction.len(),
+        "the two panes show the same picture"
+    );
+
+    // Another mode: the panes are gone.
+    harness.get_by_label("Sparse only").click();
+    harness.run_steps(2);
+    assert!(!harness.state().preview_state().compare);
+    assert!(harness.state().preview_state().compare_rects.is_none());
+}
+
+/// The starting material is saved with the session: reopened, and recovered after a crash,
+/// the worker's prior mean is the same and the material is the preview's reference again.
+#[test]
+fn the_starting_material_is_saved_with_the_session_and_recovered() {
+    let dir = tempfile::tempdir().unwrap();
+    let recovery = dir.path().join("recovery.burnish");
+    let material = reference_table(dir.path());
+    let session = dir.path().join("started.burnish");
+    let (prior, coefficients) = {
+        let mut harness = open_app(autosaving(&recovery));
+        harness
+            .state_mut()
+            .perform(Action::StartFrom(material.clone()));
+        settle(&mut harness);
+        let prior = harness
+            .state()
+            .snapshot
+            .prior_mean
+            .clone()
+            .expect("the start sets the prior mean");
+        harness
+            .state_mut()
+            .perform(Action::SaveSession(session.clone()));
+        // A stroke after the save, autosaved: the recovery file holds the start too.
+        stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+        harness.step();
+        harness.state_mut().flush_autosave().unwrap();
+        assert!(
+            harness.state().notices.iter().all(|n| !n.is_error),
+            "{:?}",
+            harness.state().notices
+        );
+        (prior, harness.state().snapshot.coefficients.clone())
+    };
+    // The material's file is gone: the session holds its own copy.
+    std::fs::remove_file(&material).unwrap();
+
+    let reopened = open_app(AppConfig {
+        session: Some(session.clone()),
+        ..config()
+    });
+    let app = reopened.state();
+    assert_eq!(app.start_material_name(), Some("reference.exr"));
+    assert_eq!(
+        app.snapshot.prior_mean.as_deref(),
+        Some(&*prior),
+        "the same prior mean"
+    );
+    assert_eq!(
+        app.preview_state().reference.as_ref().unwrap().name,
+        "reference.exr"
+    );
+    drop(reopened);
+
+    let mut recovered = open_app(AppConfig {
+        recover: true,
+        ..autosaving(&recovery)
+    });
+    settle(&mut recovered);
+    let app = recovered.state();
+    assert!(app.recovery_offer.is_none(), "recovered at once");
+    assert_eq!(app.start_material_name(), Some("reference.exr"));
+    assert_eq!(app.snapshot.prior_mean.as_deref(), Some(&*prior));
+    // The same samples on the same start, added in another order: equal up to rounding.
+    assert_eq!(app.snapshot.coefficients.len(), coefficients.len());
+    for (x, y) in app.snapshot.coefficients.iter().zip(coefficients.iter()) {
+        for c in 0..3 {
+            assert!(
+                (x[c] - y[c]).abs() <= 1e-9 * (1.0 + y[c].abs()),
+                "the recovered stroke on the same start solves to the same BRDF: {x:?} vs {y:?}"
+            );
+        }
+    }
+
+    // A new session starts from the database's mean again.
+    recovered.state_mut().perform(Action::NewSession);
+    settle(&mut recovered);
+    assert_eq!(recovered.state().start_material_name(), None);
+    assert_eq!(recovered.state().snapshot.prior_mean, None);
+}
+
+/// An export runs on its own thread: the window keeps drawing frames and says what it is
+/// writing until the file is there; a failed one says which file and why.
+#[test]
+fn an_export_runs_off_the_ui_thread_and_the_window_keeps_drawing() {
+    use egui_kittest::kittest::Queryable;
+    let dir = tempfile::tempdir().unwrap();
+    let mut harness = open_app(config());
+    let out = dir.path().join("material.bsdf");
+    harness.state_mut().perform(Action::Export(out.clone()));
+    assert!(
+        harness.state().file_jobs_pending(),
+        "perform returns while the export runs"
+    );
+    // (egui shows a new area from its second frame.)
+    harness.run_steps(2);
+    // Writing a .bsdf (the full table, the NDF's power iteration, the warped grids) takes
+    // seconds: the first frames after the request come long before it is done.
+    assert!(harness.state().file_jobs_pending());
+    harness.get_by_label_contains("exporting material.bsdf");
+    let mut frames = 2;
+    let deadline = std::time::Instant::now() + Duration::from_secs(300);
+    while harness.state().file_jobs_pending() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the export never ended"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        harness.step();
+        frames += 1;
+    }
+    assert!(frames > 1, "frames were drawn while the export ran");
+    assert!(out.is_file(), "the file appeared");
+    assert!(burnish::export::RglBsdf::read(&out).is_ok());
+    let app = harness.state();
+    assert!(
+        app.notices
+            .iter()
+            .any(|n| !n.is_error && n.text.contains("material.bsdf")),
+        "{:?}",
+        app.notices
+    );
+    assert!(harness.query_by_label_contains("exporting").is_none());
+
+    let unwritable = dir.path().join("no such folder").join("material.gltf");
+    harness
+        .state_mut()
+        .perform(Action::Export(unwritable.clone()));
+    settle(&mut harness);
+    assert!(
+        harness
+            .state()
+            .notices
+            .iter()
+            .any(|n| n.is_error && n.text.contains("material.gltf")),
+        "{:?}",
+        harness.state().notices
+    );
+    assert!(!unwritable.exists());
 }

@@ -85,6 +85,7 @@ fn two_view_session(mesh_dir: &Path) -> Session {
             regularization: Regularization::Prior { alpha: 0.37 },
             policy: Policy::Max,
         },
+        start: None,
     }
 }
 

@@ -1,15 +1,18 @@
 //! What the menus and shortcuts do: sessions, import and export, undo, views.
 //! File dialogs only supply paths; every action takes its path, so tests drive them directly.
 
+use super::file_jobs::{JobKind, Outcome};
 use super::{BurnishApp, ViewDoc};
 use crate::export::{ExportOptions, Format, export, load_table};
+use crate::image_io::RgbImage;
 use crate::paint::BrushKind;
-use crate::scene::{Scene, render_table, write_png};
-use crate::session::{Session, SessionView};
+use crate::scene::{GBuffer, Scene, render_table, write_png};
+use crate::session::{Session, SessionView, StartMaterial};
 use crate::solver::Reconstruction;
 use crate::table::merl::MerlBrdf;
-use crate::worker::Command;
+use crate::worker::{Command, ViewId};
 use egui::{Key, KeyboardShortcut, Modifiers};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -70,9 +73,9 @@ impl BurnishApp {
             Action::ImportPainting(path) => self.import_painting(&path),
             Action::ExportGuide(path) => self.export_guide(&path),
             Action::ExportPainting(path) => self.export_painting(&path),
-            Action::ExportTable(path) => self.export_table(&path, false),
-            Action::ExportMerl(path) => self.export_table(&path, true),
-            Action::Export(path) => self.export_any(&path),
+            Action::ExportTable(path) => self.export_in_background(&path, ExportKind::Table),
+            Action::ExportMerl(path) => self.export_in_background(&path, ExportKind::Merl),
+            Action::Export(path) => self.export_in_background(&path, ExportKind::Any),
             Action::StartFrom(path) => self.start_from(&path),
             Action::ClearStart => {
                 self.clear_start();
@@ -152,6 +155,7 @@ impl BurnishApp {
             active_view: self.active,
             brush: self.brush.clone(),
             basis: self.basis_settings,
+            start: self.start_material.clone(),
         }
     }
 
@@ -189,8 +193,17 @@ impl BurnishApp {
             });
         }
         self.views = docs;
-        // A session file does not record a starting material: the session shows what it holds.
-        self.clear_start();
+        // The session's own starting material, or none: its canvases already hold the
+        // renders of it they were saved with.
+        match session.start {
+            Some(start) => {
+                self.worker
+                    .send(Command::SetStartMaterial(Some(start.table.clone())));
+                self.set_reference(start.name.clone(), start.table.clone());
+                self.start_material = Some(start);
+            }
+            None => self.clear_start(),
+        }
         self.active = session.active_view.min(self.views.len().saturating_sub(1));
         self.brush = session.brush;
         if session.basis != self.basis_settings {
@@ -217,6 +230,7 @@ impl BurnishApp {
             active_view: 0,
             brush: self.brush.clone(),
             basis: self.basis_settings,
+            start: None,
         };
         self.load_session(session)?;
         self.session_path = None;
@@ -331,49 +345,147 @@ impl BurnishApp {
         Ok(())
     }
 
-    /// The current reconstruction as a full table, for an export to `path`.
-    fn current_table(&self, path: &Path) -> crate::Result<crate::table::SymTable> {
+    /// The current reconstruction (basis and coefficients) for an export to `path`; the
+    /// full table is made on the export's thread.
+    fn current_reconstruction(&self, path: &Path) -> crate::Result<Reconstruction> {
         let Some(basis) = self.snapshot.basis.clone() else {
             return Err(crate::Error::invalid(
                 path,
                 "the basis is not ready yet; export when the status bar says it is",
             ));
         };
-        Ok(Reconstruction::new(basis, &self.snapshot.coefficients).materialize())
+        Ok(Reconstruction::new(basis, &self.snapshot.coefficients))
     }
 
-    fn export_table(&mut self, path: &Path, merl: bool) -> crate::Result<()> {
-        let table = self.current_table(path)?;
-        if merl {
-            MerlBrdf::from_table(&table).write(path)?;
-        } else {
-            crate::table::exr_file::write_table_exr(path, &table)?;
+    /// Writes the BRDF to `path` on a thread of its own (making the full table and writing
+    /// a `.bsdf` or fitting an analytic material take seconds); the notice names the file
+    /// and says what it holds (for the analytic formats, the fit's error).
+    fn export_in_background(&mut self, path: &Path, format: ExportKind) -> crate::Result<()> {
+        if format == ExportKind::Any && Format::from_path(path).is_none() {
+            // An extension no writer knows is refused at once, before any work.
+            return Err(crate::Error::invalid(
+                path,
+                format!(
+                    "unknown material format: the extension must be one of .{}",
+                    Format::extensions().join(", .")
+                ),
+            ));
         }
-        self.notify(format!("BRDF written to {}", path.display()));
-        Ok(())
+        let reconstruction = self.current_reconstruction(path)?;
+        let target = path.to_path_buf();
+        let label = format!("exporting {}…", file_name(path));
+        self.file_jobs
+            .spawn(label, JobKind::Export, target.clone(), move || {
+                let table = reconstruction.materialize();
+                let message = match format {
+                    ExportKind::Merl => {
+                        MerlBrdf::from_table(&table).write(&target)?;
+                        format!("BRDF written to {}", target.display())
+                    }
+                    ExportKind::Table => {
+                        crate::table::exr_file::write_table_exr(&target, &table)?;
+                        format!("BRDF written to {}", target.display())
+                    }
+                    ExportKind::Any => {
+                        let report = export(&target, &table, &ExportOptions::default())?;
+                        format!("BRDF written to {}: {report}", target.display())
+                    }
+                };
+                Ok(Outcome::Written(message))
+            })
+            .map_err(|e| crate::Error::io(path, e))
     }
 
-    /// Writes the BRDF in any export format; the notice says what the file holds (for the
-    /// analytic formats, the fit's error).
-    fn export_any(&mut self, path: &Path) -> crate::Result<()> {
-        let table = self.current_table(path)?;
-        let report = export(path, &table, &ExportOptions::default())?;
-        self.notify(format!("BRDF written to {}: {report}", path.display()));
-        Ok(())
-    }
-
+    /// Reads a starting material and renders it under every view's paint on a thread of its
+    /// own; [`Self::take_file_jobs`] puts it in place when it is done.
     fn start_from(&mut self, path: &Path) -> crate::Result<()> {
-        let table = Arc::new(load_table(path)?);
-        let name = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into(),
-        );
+        let request = self.file_jobs.new_start_request();
+        let views: Vec<(ViewId, Arc<GBuffer>)> = self
+            .views
+            .iter()
+            .map(|d| (d.id, d.gbuffer.clone()))
+            .collect();
+        let source = path.to_path_buf();
+        let name = file_name(path);
+        let label = format!("reading {name}…");
+        self.file_jobs
+            .spawn(
+                label,
+                JobKind::Start { request },
+                source.clone(),
+                move || {
+                    let table = Arc::new(load_table(&source)?);
+                    let renders = views
+                        .into_iter()
+                        .map(|(id, gbuffer)| {
+                            let image = render_table(&gbuffer, &table);
+                            (id, gbuffer, image)
+                        })
+                        .collect();
+                    let start = StartMaterial {
+                        name,
+                        source: Some(source),
+                        table,
+                    };
+                    Ok(Outcome::StartLoaded { start, renders })
+                },
+            )
+            .map_err(|e| crate::Error::io(path, e))
+    }
+
+    /// Takes the file jobs that finished: notices for exports, and a starting material put
+    /// in place.
+    pub(super) fn take_file_jobs(&mut self) {
+        for (job, outcome) in self.file_jobs.take_finished() {
+            match outcome {
+                Ok(Outcome::Written(message)) => self.notify(message),
+                Ok(Outcome::StartLoaded { start, renders }) => {
+                    // A later start was asked for meanwhile: that one is the user's choice.
+                    if let JobKind::Start { request } = job.kind
+                        && !self.file_jobs.is_latest_start(request)
+                    {
+                        continue;
+                    }
+                    if let Err(e) = self.set_start(start, renders) {
+                        self.notify_error(e.to_string());
+                    }
+                }
+                Err(e) => self.notify_error(e.to_string()),
+            }
+        }
+    }
+
+    /// Whether exports or a starting material are still being written or read.
+    pub fn file_jobs_pending(&self) -> bool {
+        !self.file_jobs.is_empty()
+    }
+
+    /// Makes `start` the material the painting edits: the worker centres the prior on its
+    /// projection, and every canvas shows it under its paint (`renders`, where they are of
+    /// the view's current geometry; rendered here for views that changed meanwhile).
+    fn set_start(
+        &mut self,
+        start: StartMaterial,
+        renders: Vec<(ViewId, Arc<GBuffer>, RgbImage)>,
+    ) -> crate::Result<()> {
         self.worker
-            .send(Command::SetStartMaterial(Some(table.clone())));
-        // Paint on the starting material: every canvas shows it under its paint, so that
-        // pixels counted as shown say "this material" rather than the grey guide.
+            .send(Command::SetStartMaterial(Some(start.table.clone())));
+        // Paint on the starting material: pixels counted as shown then say "this material"
+        // rather than the grey guide.
+        let mut renders: HashMap<ViewId, (Arc<GBuffer>, RgbImage)> = renders
+            .into_iter()
+            .map(|(id, gbuffer, image)| (id, (gbuffer, image)))
+            .collect();
+        let mut result = Ok(());
         for doc in &mut self.views {
-            doc.set_prediction(render_table(&doc.gbuffer, &table))?;
+            let image = match renders.remove(&doc.id) {
+                Some((gbuffer, image)) if Arc::ptr_eq(&gbuffer, &doc.gbuffer) => image,
+                _ => render_table(&doc.gbuffer, &start.table),
+            };
+            if let Err(e) = doc.set_prediction(image) {
+                result = Err(e);
+            }
+            self.awaiting_prediction.remove(&doc.id);
             self.worker.send(Command::ReplacePaint {
                 view: doc.id,
                 painted: doc.counted_pixels(),
@@ -381,10 +493,11 @@ impl BurnishApp {
         }
         self.canvas_view.invalidate();
         self.touch();
-        self.start_material = Some(name.clone());
-        self.set_reference(name.clone(), table);
+        let name = start.name.clone();
+        self.set_reference(name.clone(), start.table.clone());
+        self.start_material = Some(start);
         self.notify(format!("painting from {name}"));
-        Ok(())
+        result
     }
 
     fn clear_start(&mut self) {
@@ -392,6 +505,29 @@ impl BurnishApp {
             self.worker.send(Command::SetStartMaterial(None));
         }
     }
+
+    /// The name of the material the painting starts from, if any.
+    pub fn start_material_name(&self) -> Option<&str> {
+        self.start_material.as_ref().map(|s| s.name.as_str())
+    }
+}
+
+/// Which writer an export uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ExportKind {
+    /// TABLE.md's EXR table image.
+    Table,
+    Merl,
+    /// The format the extension names (`crate::export::Format`).
+    Any,
+}
+
+/// A path's file name for notices, or the whole path where it has none.
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    )
 }
 
 /// Where [`Action::ExportPainting`] writes the mask of painted pixels for a painting at
@@ -555,7 +691,7 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
                     Action::StartFrom,
                 );
             }
-            if let Some(name) = app.start_material.clone()
+            if let Some(name) = app.start_material_name().map(str::to_owned)
                 && ui
                     .button(format!("Clear starting material ({name})"))
                     .clicked()
@@ -695,6 +831,21 @@ pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
                     }
                     if ui.button("Cancel").clicked() {
                         app.confirm_close = false;
+                    }
+                });
+            });
+    }
+    if app.file_jobs_pending() {
+        let labels: Vec<String> = app.file_jobs.labels().map(str::to_owned).collect();
+        egui::Area::new(egui::Id::unique("burnish-file-jobs"))
+            .anchor(egui::Align2::LEFT_BOTTOM, [12.0, -36.0])
+            .show(ctx, |ui| {
+                egui::Frame::popup(ui.style()).show(ui, |ui| {
+                    for label in labels {
+                        ui.horizontal(|ui| {
+                            ui.spinner();
+                            ui.label(label);
+                        });
                     }
                 });
             });

@@ -8,6 +8,7 @@ mod actions;
 mod basis_job;
 mod canvas_panel;
 mod document;
+mod file_jobs;
 mod preview_panel;
 mod side_panel;
 mod status_bar;
@@ -140,8 +141,10 @@ pub struct BurnishApp {
     pub latencies_ms: Vec<f64>,
     preview_state: preview_panel::PreviewState,
     pending_actions: Vec<Action>,
-    /// The name of the material the painting starts from (the worker holds the table).
-    pub start_material: Option<String>,
+    /// The material the painting starts from (saved with the session).
+    pub start_material: Option<crate::session::StartMaterial>,
+    /// Exports and starting materials being written or read off the UI thread.
+    file_jobs: file_jobs::FileJobs,
     /// New views whose canvas waits for the prediction of the current BRDF; they give no
     /// samples until it arrives (or the worker says there is no basis to predict with).
     awaiting_prediction: HashSet<ViewId>,
@@ -188,7 +191,10 @@ impl BurnishApp {
             let ctx = cc.egui_ctx.clone();
             saver.set_waker(move || ctx.request_repaint());
         }
+        // A session opened by `headless` may have set a reference (its starting material).
+        let reference = app.preview_state.reference.take();
         app.preview_state = preview_panel::PreviewState::new(cc.wgpu_render_state.as_ref());
+        app.preview_state.reference = reference;
         if let Some(e) = app.preview_state.init_error.clone() {
             app.notify_error(format!("preview: {e}"));
         }
@@ -253,6 +259,7 @@ impl BurnishApp {
             preview_state: preview_panel::PreviewState::default(),
             pending_actions: Vec::new(),
             start_material: None,
+            file_jobs: file_jobs::FileJobs::default(),
             awaiting_prediction: HashSet::new(),
             pending_suggestion: None,
             next_request: 0,
@@ -623,6 +630,7 @@ impl BurnishApp {
         if snapshot.version != self.snapshot.version {
             self.snapshot = snapshot;
         }
+        self.take_file_jobs();
         self.request_uncertainty();
     }
 
@@ -769,6 +777,10 @@ impl eframe::App for BurnishApp {
             || self.snapshot.version != self.preview_state.last_drawn_version
         {
             ctx.request_repaint();
+        }
+        if self.file_jobs_pending() {
+            // Look again soon: a finished job's outcome is taken at the next frame.
+            ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
         if ctx.input(|i| i.viewport().close_requested()) {
             if self.dirty {

@@ -118,8 +118,16 @@ pub struct PreviewState {
     pub table_readout: Option<String>,
     /// Where the last frame drew the table plot, in points.
     pub table_rect: Option<egui::Rect>,
-    /// Where the last frame drew the object preview.
+    /// Where the last frame drew the object preview (in compare mode, the reconstruction's
+    /// pane).
     pub last_rect: Option<egui::Rect>,
+    /// Compare mode: the reconstruction beside the starting or reference material, and
+    /// their difference.
+    pub compare: bool,
+    /// Where the difference view saturates, in stops.
+    pub compare_stops: f32,
+    /// Where the last frame drew the compare panes: reconstruction, material, difference.
+    pub compare_rects: Option<[egui::Rect; 3]>,
 }
 
 impl Default for PreviewState {
@@ -149,6 +157,9 @@ impl Default for PreviewState {
             table_readout: None,
             table_rect: None,
             last_rect: None,
+            compare: false,
+            compare_stops: 2.0,
+            compare_rects: None,
         }
     }
 }
@@ -309,7 +320,48 @@ impl PreviewState {
     }
 }
 
+impl PreviewState {
+    /// Hands the compare renderer (made on first use) the object, environment and the
+    /// compared material's table, where they changed.
+    fn feed_compare(
+        &mut self,
+        view: Option<(u32, &str, &Arc<Object>)>,
+        table: &Arc<SymTable>,
+    ) -> Option<String> {
+        let rs = self.render_state.clone()?;
+        let object = match self.preview_object(view) {
+            Ok(Some((_, object))) => object,
+            Ok(None) => return None,
+            Err(e) => return Some(format!("preview object: {e}")),
+        };
+        let environment = self.environment.clone();
+        match crate::preview::with_compare(&rs, |c| c.sync(&object, &environment, table)) {
+            Ok(None | Some(Ok(()))) => None,
+            Ok(Some(Err(e))) | Err(e) => Some(e.to_string()),
+        }
+    }
+
+    /// Why the last compare pane could not be drawn, if it could not.
+    fn compare_error(&self) -> Option<String> {
+        let rs = self.render_state.as_ref()?;
+        crate::preview::with_compare(rs, |c| c.last_error().map(str::to_owned))
+            .ok()
+            .flatten()
+            .flatten()
+    }
+}
+
 impl BurnishApp {
+    /// What compare mode shows beside the reconstruction: the reference material if one is
+    /// loaded, else the material the painting starts from.
+    pub fn compared_material(&self) -> Option<(String, Arc<SymTable>)> {
+        match (&self.preview_state.reference, &self.start_material) {
+            (Some(r), _) => Some((format!("reference: {}", r.name), r.table.clone())),
+            (None, Some(s)) => Some((format!("start: {}", s.name), s.table.clone())),
+            (None, None) => None,
+        }
+    }
+
     /// Loads a reference material to compare with: an EXR table (TABLE.md), a MERL binary
     /// (`.binary`) or an RGL `.bsdf`, chosen by the extension.
     pub fn load_reference(&mut self, path: &Path) -> crate::Result<()> {
@@ -425,24 +477,78 @@ const OBJECTS: [PreviewObject; 6] = [
 
 fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let has_reference = app.preview_state.reference.is_some();
+    let can_compare = has_reference || app.start_material.is_some();
+    let comparing = &mut app.preview_state.compare;
     let frame = &mut app.preview;
     ui.horizontal_wrapped(|ui| {
-        ui.selectable_value(
-            &mut frame.mode,
+        let mut mode = |ui: &mut egui::Ui, mode: PreviewMode, text: &str, hover: &str| {
+            let selected = frame.mode == mode && !*comparing;
+            let response = ui.selectable_label(selected, text).on_hover_text(hover);
+            if response.clicked() {
+                frame.mode = mode;
+                *comparing = false;
+            }
+            response
+        };
+        mode(
+            ui,
             PreviewMode::Reconstruction,
             "Reconstruction",
-        )
-        .on_hover_text("The full BRDF the solver reconstructs");
-        ui.selectable_value(&mut frame.mode, PreviewMode::SparseOnly, "Sparse only")
-            .on_hover_text("Only what the paintings give directly; grey where no view reached");
-        ui.selectable_value(&mut frame.mode, PreviewMode::GuideMaterial, "Guide")
-            .on_hover_text("The guide's grey diffuse material");
+            "The full BRDF the solver reconstructs",
+        );
+        mode(
+            ui,
+            PreviewMode::SparseOnly,
+            "Sparse only",
+            "Only what the paintings give directly; grey where no view reached",
+        );
+        mode(
+            ui,
+            PreviewMode::GuideMaterial,
+            "Guide",
+            "The guide's grey diffuse material",
+        );
         ui.add_enabled_ui(has_reference, |ui| {
-            ui.selectable_value(&mut frame.mode, PreviewMode::Table, "Reference")
-                .on_hover_text("The reference material loaded to compare with")
-                .on_disabled_hover_text("Load a reference material first");
+            mode(
+                ui,
+                PreviewMode::Table,
+                "Reference",
+                "The reference material loaded to compare with",
+            )
+            .on_disabled_hover_text("Load a reference material first");
+        });
+        ui.add_enabled_ui(can_compare, |ui| {
+            if ui
+                .selectable_label(*comparing, "Compare")
+                .on_hover_text(
+                    "The reconstruction beside the reference material (or the one the \
+                     painting started from), on the same object under the same lights, and \
+                     their difference in stops",
+                )
+                .on_disabled_hover_text(
+                    "Nothing to compare with: start from a material or load a reference \
+                     material first (File menu)",
+                )
+                .clicked()
+            {
+                *comparing = true;
+                frame.mode = PreviewMode::Reconstruction;
+            }
         });
     });
+    if !can_compare {
+        app.preview_state.compare = false;
+    }
+    if app.preview_state.compare {
+        ui.horizontal_wrapped(|ui| {
+            ui.add(
+                egui::Slider::new(&mut app.preview_state.compare_stops, 0.25..=6.0)
+                    .text("difference scale ±")
+                    .suffix(" EV"),
+            )
+            .on_hover_text("Where the difference's colours saturate, in stops (EV)");
+        });
+    }
     let mut open_obj = false;
     ui.horizontal_wrapped(|ui| {
         let label = ui.label("object");
@@ -535,9 +641,23 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
 
 fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     object_controls(app, ui);
-    let side = ui.available_width().min(ui.available_height()).max(64.0);
-    let (rect, response) = ui.allocate_exact_size(Vec2::splat(side), Sense::click_and_drag());
+    let compared = app
+        .compared_material()
+        .filter(|_| app.preview_state.compare && app.preview_state.render_state.is_some());
+    let (rect, response, compare_layout) = match &compared {
+        Some((name, _)) => {
+            let layout = compare_layout(ui, name, app.preview_state.compare_stops);
+            (layout.panes[0], layout.response.clone(), Some(layout))
+        }
+        None => {
+            let side = ui.available_width().min(ui.available_height()).max(64.0);
+            let (rect, response) =
+                ui.allocate_exact_size(Vec2::splat(side), Sense::click_and_drag());
+            (rect, response, None)
+        }
+    };
     app.preview_state.last_rect = Some(rect);
+    app.preview_state.compare_rects = compare_layout.as_ref().map(|l| l.panes);
     // Drag orbits the camera; Shift + drag (or the secondary button) moves the light.
     let delta = response.drag_delta();
     let move_light =
@@ -626,7 +746,128 @@ fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         ppp,
         app.preview.clone(),
     ));
+    if let (Some((_, table)), Some(layout)) = (&compared, &compare_layout) {
+        let view = app
+            .views
+            .get(app.active)
+            .map(|doc| (doc.id, doc.scene.object.clone(), doc.object.clone()));
+        let error = app.preview_state.feed_compare(
+            view.as_ref().map(|(id, name, o)| (*id, name.as_str(), o)),
+            table,
+        );
+        if let Some(error) = error {
+            app.notify_error(format!("preview: {error}"));
+        }
+        let stops = app.preview_state.compare_stops;
+        for (pane, kind) in [
+            (layout.panes[1], crate::preview::ComparePane::Material),
+            (
+                layout.panes[2],
+                crate::preview::ComparePane::Difference { stops },
+            ),
+        ] {
+            ui.painter().add(crate::preview::compare_callback(
+                pane,
+                ppp,
+                app.preview.clone(),
+                kind,
+            ));
+        }
+        if let Some(error) = app.preview_state.compare_error() {
+            ui.painter().text(
+                layout.panes[1].center(),
+                egui::Align2::CENTER_CENTER,
+                error,
+                egui::FontId::proportional(12.0),
+                ui.visuals().error_fg_color,
+            );
+        }
+    }
     app.record_drawn(snapshot.version, snapshot.oldest_input);
+}
+
+/// Where compare mode draws: the reconstruction and the compared material side by side
+/// (the same size, so that each pixel of one faces the same pixel of the other), and below
+/// them their difference with its scale.
+struct CompareLayout {
+    /// Reconstruction, compared material, difference.
+    panes: [egui::Rect; 3],
+    /// Dragging over the two top panes orbits the camera (or moves the light).
+    response: egui::Response,
+}
+
+fn compare_layout(ui: &mut egui::Ui, compared: &str, stops: f32) -> CompareLayout {
+    let row = ui.text_style_height(&egui::TextStyle::Body) + ui.spacing().item_spacing.y;
+    let width = ui.available_width();
+    let pane = (width / 2.0)
+        .min((ui.available_height() - 2.0 * row) / 2.0)
+        .max(32.0)
+        .floor();
+    ui.horizontal(|ui| {
+        let label = |ui: &mut egui::Ui, text: &str| {
+            ui.add_sized(
+                [pane - ui.spacing().item_spacing.x, row],
+                egui::Label::new(text).truncate(),
+            );
+        };
+        label(ui, "reconstruction");
+        label(ui, compared);
+    });
+    let (top, response) =
+        ui.allocate_exact_size(Vec2::new(2.0 * pane, pane), Sense::click_and_drag());
+    let left = egui::Rect::from_min_size(top.min, Vec2::splat(pane));
+    let right = egui::Rect::from_min_size(top.min + Vec2::new(pane, 0.0), Vec2::splat(pane));
+    ui.label("difference: reconstruction against it, in the channel that differs most")
+        .on_hover_text(
+            "Per pixel, log2 of the reconstruction's radiance over the compared material's: \
+             black where they agree, orange where the reconstruction is brighter, blue where \
+             it is darker",
+        );
+    let difference = ui
+        .horizontal(|ui| {
+            let (difference, _) = ui.allocate_exact_size(Vec2::splat(pane), Sense::hover());
+            difference_legend(ui, stops, pane);
+            difference
+        })
+        .inner;
+    CompareLayout {
+        panes: [left, right, difference],
+        response,
+    }
+}
+
+/// A vertical bar of the difference's colours from −`stops` to +`stops`, labelled.
+fn difference_legend(ui: &mut egui::Ui, stops: f32, height: f32) {
+    let (rect, _) = ui.allocate_exact_size(Vec2::new(150.0, height), Sense::hover());
+    let bar = egui::Rect::from_min_size(
+        rect.min + Vec2::new(4.0, 8.0),
+        Vec2::new(14.0, (height - 16.0).max(8.0)),
+    );
+    let steps = 64;
+    let painter = ui.painter();
+    for i in 0..steps {
+        let t = (i as f32 + 0.5) / steps as f32 * 2.0 - 1.0;
+        let [r, g, b] = crate::preview::difference_colour(t);
+        let y1 = bar.max.y - bar.height() * i as f32 / steps as f32;
+        let y0 = bar.max.y - bar.height() * (i + 1) as f32 / steps as f32;
+        painter.rect_filled(
+            egui::Rect::from_min_max(egui::pos2(bar.min.x, y0), egui::pos2(bar.max.x, y1)),
+            0.0,
+            Color32::from(egui::Rgba::from_rgb(r, g, b)),
+        );
+    }
+    let text = |y: f32, label: String| {
+        painter.text(
+            egui::pos2(bar.max.x + 4.0, y),
+            egui::Align2::LEFT_CENTER,
+            label,
+            egui::FontId::proportional(11.0),
+            ui.visuals().text_color(),
+        );
+    };
+    text(bar.min.y, format!("+{stops:.2} EV brighter"));
+    text(bar.center().y, "0 same".into());
+    text(bar.max.y, format!("−{stops:.2} EV darker"));
 }
 
 fn wrap_degrees(deg: f64) -> f64 {

@@ -27,12 +27,17 @@
 //! light below the horizon, bins and shading frames exactly as `scene::render_table` uses them,
 //! so a frame from [`PreviewFrame::from_scene`] with nearest bins reproduces `burnish render`.
 
+mod compare;
 mod egui_glue;
 mod environment;
 mod frame;
 mod objects;
 mod renderer;
 
+pub use compare::{
+    CompareCallback, ComparePane, CompareRenderer, DIFFERENCE_FLOOR, compare_callback,
+    difference_colour, with_compare,
+};
 pub use egui_glue::{
     PreviewCallback, install, install_in, paint_callback, physical_size, with_renderer,
 };

@@ -1446,6 +1446,12 @@ impl PreviewRenderer {
             }
         }
     }
+
+    /// The linear radiance the last `prepare` drew, for passes that combine two renders.
+    pub(super) fn radiance_view(&self) -> Option<&wgpu::TextureView> {
+        self.target.as_ref().map(|t| &t.radiance_view)
+    }
+
     pub fn paint(&self, render_pass: &mut wgpu::RenderPass<'_>) {
         if let Some(target) = &self.target {
             render_pass.set_pipeline(&self.present_pipeline);

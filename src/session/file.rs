@@ -11,22 +11,30 @@
 //! - `views/N/base.exr` (optional): what the canvas shows under the paint when it is a
 //!   prediction of the BRDF rather than the scene's guide, as `colour.exr`. Unpainted pixels
 //!   that count as shown state it, so it is kept to give the same samples on opening.
+//! - `start/table.exr` (optional, with a `[start]` table in the manifest holding its `name`
+//!   and the `source` file it was opened from): the material the painting starts from, as
+//!   TABLE.md's EXR table image, stored uncompressed. The whole table rather than its
+//!   coefficients, so that a session reopened with another basis projects it afresh; its own
+//!   copy rather than only the source path, so that the session opens without that file.
+//!   Files without it start from the database's mean material.
 //! - `views/N/object.obj`: for a scene with an .obj object, a copy of that file's bytes, so
 //!   the session opens on a machine without the original. On opening, the original path is
 //!   used where it holds these very bytes; otherwise the copy is extracted to
 //!   [`object_cache_dir`]`/<hash>/<file name>` and the scene's `object` becomes that path.
 
-use super::{BasisSettings, Session, SessionView, check_colour, check_coverage};
+use super::{BasisSettings, Session, SessionView, StartMaterial, check_colour, check_coverage};
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
 use crate::image_io::RgbImage;
 use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
 use crate::scene::{ObjectSource, Scene};
+use crate::table::{DIRECTIONS, DirIndex, SymTable};
 use exr::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::fs::File;
 use std::io::{BufReader, Cursor, Read, Seek, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use zip::ZipArchive;
 use zip::write::{SimpleFileOptions, ZipWriter};
 
@@ -61,7 +69,46 @@ struct Manifest {
     session_path: Option<String>,
     brush: BrushSettings,
     basis: BasisManifest,
+    /// Absent when the painting starts from the database's mean material.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    start: Option<StartManifest>,
     views: Vec<ViewManifest>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StartManifest {
+    name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    source: Option<String>,
+}
+
+/// The entry holding the start material's table.
+const START_TABLE: &str = "start/table.exr";
+
+/// The start table last encoded and its bytes: autosave writes the session after every
+/// stroke, and the table (31 MB of floats) does not change between them.
+type EncodedTable = (std::sync::Weak<SymTable>, Arc<Vec<u8>>);
+static ENCODED_START: Mutex<Option<EncodedTable>> = Mutex::new(None);
+
+/// The EXR bytes of `table` (TABLE.md), reusing the last encoding of the same table.
+fn encode_start_table(table: &Arc<SymTable>) -> std::result::Result<Arc<Vec<u8>>, String> {
+    let mut cached = ENCODED_START.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((weak, bytes)) = cached.as_ref()
+        && weak.upgrade().is_some_and(|t| Arc::ptr_eq(&t, table))
+    {
+        return Ok(bytes.clone());
+    }
+    let image = RgbImage {
+        width: DIRECTIONS,
+        height: DIRECTIONS,
+        pixels: (0..DIRECTIONS * DIRECTIONS)
+            .map(|i| table.get((i / DIRECTIONS) as DirIndex, (i % DIRECTIONS) as DirIndex))
+            .collect(),
+    };
+    let bytes = Arc::new(encode_colour(&image)?);
+    *cached = Some((Arc::downgrade(table), bytes.clone()));
+    Ok(bytes)
 }
 
 #[derive(Serialize, Deserialize)]
@@ -165,6 +212,13 @@ pub(crate) fn write_session(
             regularization: session.basis.regularization.to_string(),
             policy: session.basis.policy.to_string(),
         },
+        start: session.start.as_ref().map(|start| StartManifest {
+            name: start.name.clone(),
+            source: start
+                .source
+                .as_ref()
+                .map(|p| p.to_string_lossy().into_owned()),
+        }),
         views: session
             .views
             .iter()
@@ -224,6 +278,14 @@ pub(crate) fn write_session(
         })
         .collect::<Result<_>>()?;
     entries.extend(images);
+    let start_table = session
+        .start
+        .as_ref()
+        .map(|start| {
+            encode_start_table(&start.table)
+                .map_err(|e| Error::invalid(path, format!("not saved: {START_TABLE}: {e}")))
+        })
+        .transpose()?;
 
     write_atomically(path, |w| {
         let options = SimpleFileOptions::default()
@@ -237,6 +299,14 @@ pub(crate) fn write_session(
         let mut zip = ZipWriter::new(w);
         for (name, bytes) in &entries {
             zip.start_file(name.as_str(), options)
+                .map_err(std::io::Error::other)?;
+            zip.write_all(bytes)?;
+        }
+        if let Some(bytes) = &start_table {
+            // Floats barely deflate; storing them costs a checksum instead of a compression.
+            let stored =
+                SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+            zip.start_file(START_TABLE, stored)
                 .map_err(std::io::Error::other)?;
             zip.write_all(bytes)?;
         }
@@ -332,6 +402,22 @@ fn read_archive<R: Read + Seek>(
             base,
         });
     }
+    let start = match &manifest.start {
+        Some(start) => {
+            let bytes = read_entry(path, &mut archive, START_TABLE, exr_limit(DIRECTIONS, 3))?;
+            let table = crate::table::exr_file::decode_table_exr(&bytes, Path::new(START_TABLE))
+                .map_err(|e| match e {
+                    Error::Invalid { problem, .. } => invalid(format!("{START_TABLE}: {problem}")),
+                    other => invalid(format!("{START_TABLE}: {other}")),
+                })?;
+            Some(StartMaterial {
+                name: start.name.clone(),
+                source: start.source.as_ref().map(PathBuf::from),
+                table: Arc::new(table),
+            })
+        }
+        None => None,
+    };
     let session = Session {
         views,
         active_view: manifest.active_view,
@@ -342,6 +428,7 @@ fn read_archive<R: Read + Seek>(
             regularization,
             policy,
         },
+        start,
     };
     session
         .check()
@@ -628,4 +715,105 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, &b| {
         (hash ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn start_table() -> SymTable {
+        SymTable::from_fn(|lo, hi| {
+            let x = lo as f32 * 1e-3 + hi as f32 * 1e-4;
+            [x, 0.5 / (1.0 + x), 1.0 / (hi as f32 + 1.0)]
+        })
+    }
+
+    /// The starting material survives a save and an open bit for bit, with its name and
+    /// source; a session without one says nothing about it and opens without one.
+    #[test]
+    fn the_start_material_round_trips_and_is_optional() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut session = Session::default();
+        let plain = dir.path().join("plain.burnish");
+        session.save(&plain).unwrap();
+        let manifest = read_text(&plain, &mut open_archive(&plain).unwrap(), MANIFEST).unwrap();
+        assert!(!manifest.contains("[start]"), "{manifest}");
+        assert_eq!(Session::open(&plain).unwrap().start, None);
+
+        let table = Arc::new(start_table());
+        session.start = Some(StartMaterial {
+            name: "gold.binary".into(),
+            source: Some(PathBuf::from("/materials/gold.binary")),
+            table: table.clone(),
+        });
+        let path = dir.path().join("started.burnish");
+        session.save(&path).unwrap();
+        // Saved twice (as autosave does): the encoding is reused, the file the same.
+        let first = std::fs::read(&path).unwrap();
+        session.save(&path).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), first);
+        let reopened = Session::open(&path).unwrap();
+        let start = reopened.start.as_ref().expect("the start material is kept");
+        assert_eq!(start.name, "gold.binary");
+        assert_eq!(start.source, Some(PathBuf::from("/materials/gold.binary")));
+        assert!(
+            start.table.pairs() == table.pairs(),
+            "the table, bit for bit"
+        );
+        assert_eq!(reopened, session);
+    }
+
+    /// A session whose start table is missing or not a table is refused, naming the entry.
+    #[test]
+    fn a_damaged_start_table_is_refused_naming_the_entry() {
+        let dir = tempfile::tempdir().unwrap();
+        let session = Session {
+            start: Some(StartMaterial {
+                name: "m.exr".into(),
+                source: None,
+                table: Arc::new(start_table()),
+            }),
+            ..Session::default()
+        };
+        let good = dir.path().join("good.burnish");
+        session.save(&good).unwrap();
+        let mut archive = open_archive(&good).unwrap();
+        let mut rewrite = |name: &str, table: Option<&[u8]>| {
+            let out = dir.path().join(name);
+            let file = File::create(&out).unwrap();
+            let mut zip = ZipWriter::new(file);
+            for i in 0..archive.len() {
+                let mut entry = archive.by_index(i).unwrap();
+                let entry_name = entry.name().unwrap().into_owned();
+                let mut bytes = Vec::new();
+                entry.read_to_end(&mut bytes).unwrap();
+                if entry_name == START_TABLE {
+                    match table {
+                        Some(replacement) => bytes = replacement.to_vec(),
+                        None => continue,
+                    }
+                }
+                zip.start_file(entry_name, SimpleFileOptions::default())
+                    .unwrap();
+                zip.write_all(&bytes).unwrap();
+            }
+            zip.finish().unwrap();
+            out
+        };
+        let missing = rewrite("missing.burnish", None);
+        let small = RgbImage {
+            width: 4,
+            height: 4,
+            pixels: vec![[0.1; 3]; 16],
+        };
+        let wrong = rewrite("wrong.burnish", Some(&encode_colour(&small).unwrap()));
+        for (path, expected) in [
+            (missing, "start/table.exr is missing"),
+            (wrong, "1620 × 1620"),
+        ] {
+            let message = Session::open(&path).unwrap_err().to_string();
+            assert!(message.contains(expected), "{message}");
+            assert!(message.contains(START_TABLE), "{message}");
+        }
+    }
 }

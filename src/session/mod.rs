@@ -29,6 +29,30 @@ pub struct Session {
     pub active_view: usize,
     pub brush: BrushSettings,
     pub basis: BasisSettings,
+    /// The material the painting starts from (its projection onto the basis is the prior
+    /// mean), if any.
+    pub start: Option<StartMaterial>,
+}
+
+/// A material the painting starts from, kept whole (every pair of the table) rather than as
+/// coefficients: a session may be reopened with another basis (other K, other database),
+/// and each basis needs its own projection of the material.
+#[derive(Clone, PartialEq)]
+pub struct StartMaterial {
+    /// What the app calls it (the file name it was opened from).
+    pub name: String,
+    /// The file it was opened from, for the record; the session does not need it again.
+    pub source: Option<std::path::PathBuf>,
+    pub table: std::sync::Arc<crate::table::SymTable>,
+}
+
+impl std::fmt::Debug for StartMaterial {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StartMaterial")
+            .field("name", &self.name)
+            .field("source", &self.source)
+            .finish_non_exhaustive()
+    }
 }
 
 /// One view: a scene and the painting over its guide.
@@ -97,6 +121,7 @@ impl Default for Session {
             active_view: 0,
             brush: BrushSettings::default(),
             basis: BasisSettings::default(),
+            start: None,
         }
     }
 }
@@ -120,6 +145,14 @@ impl Session {
         for (i, view) in self.views.iter().enumerate() {
             view.check()
                 .map_err(|p| format!("view {} ({:?}): {p}", i + 1, view.name))?;
+        }
+        if let Some(start) = &self.start
+            && !start.table.is_physical()
+        {
+            return Err(format!(
+                "start material {:?}: the table has values that are negative or not finite",
+                start.name
+            ));
         }
         Ok(())
     }

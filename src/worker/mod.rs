@@ -144,6 +144,9 @@ pub struct Snapshot {
     pub stats: SolveStats,
     /// The earliest pointer event among the inputs this snapshot is the first to include.
     pub oldest_input: Option<Instant>,
+    /// The prior's mean coefficients when a starting material sets them (its projection
+    /// onto the basis); `None`: the database's mean material.
+    pub prior_mean: Option<Arc<Vec<[f64; 3]>>>,
 }
 
 /// Figures for the status bar.
@@ -603,6 +606,11 @@ impl WorkerState {
             coefficients,
             stats: self.last_stats,
             oldest_input,
+            prior_mean: self
+                .solver
+                .as_ref()
+                .and_then(|s| s.prior_mean())
+                .map(|m| Arc::new(m.to_vec())),
         }));
     }
 

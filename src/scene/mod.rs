@@ -24,7 +24,7 @@ mod samples;
 mod shapes;
 mod source;
 
-pub use camera::{CameraRig, light_direction};
+pub use camera::{CameraRig, ORTHO_DISTANCE, OrbitAxes, light_direction};
 pub use file::{CameraSettings, LightSettings, MAX_RESOLUTION, Projection, Scene};
 pub use gbuffer::{GBuffer, SurfacePoint, tangent_frame};
 pub use image_files::{

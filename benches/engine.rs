@@ -1,16 +1,35 @@
 //! Micro-benchmarks of the live loop (issue figures): one 500-pixel dab to new coefficients,
 //! the full table from coefficients, lazy evaluation of a view's entries, and loading the
 //! default basis from its cache; and the time per dab against its changed pixel count
-//! (50, 500, 5000) and K (10, 20, 40). Uses the default bases (built and cached on first run).
+//! (50, 500, 5000) and K (10, 20, 40). Uses the default bases (built and cached on first run);
+//! under `cargo test`, which runs each benchmark once, a tiny basis at K = 20 only.
 
-use burnish::basis::{BasisCache, BasisSpec};
+mod common;
+
+use burnish::basis::{Basis, BasisCache, BasisSpec};
 use burnish::solver::{Reconstruction, Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{DIRECTIONS, DirIndex};
+use common::{check_basis, check_basis_spec, test_mode};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use std::collections::BTreeMap;
 use std::hint::black_box;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-fn default_basis(k: usize) -> std::sync::Arc<burnish::basis::Basis> {
+/// The K to measure at; in test mode only K = 20, so that one small basis is built.
+fn ks(all: &'static [usize]) -> &'static [usize] {
+    if test_mode() { &[20] } else { all }
+}
+
+fn default_basis(k: usize) -> Arc<Basis> {
+    if test_mode() {
+        static BUILT: Mutex<BTreeMap<usize, Arc<Basis>>> = Mutex::new(BTreeMap::new());
+        let mut built = BUILT.lock().expect("not poisoned");
+        return built
+            .entry(k)
+            .or_insert_with(|| Arc::new(check_basis(k)))
+            .clone();
+    }
     let cache = BasisCache::default_location().expect("a cache folder");
     cache
         .load_or_build(&BasisSpec::default_for(k), false, &|_| {})
@@ -28,7 +47,7 @@ fn pixel_bins(pixel: u32) -> (DirIndex, DirIndex) {
 }
 
 fn engine(c: &mut Criterion) {
-    for k in [20usize, 40] {
+    for &k in ks(&[20, 40]) {
         let basis = default_basis(k);
         let mut table = SparseTable::default();
         let mut solver = Solver::new(basis.clone(), Regularization::Gcv);
@@ -85,8 +104,20 @@ fn engine(c: &mut Criterion) {
         });
     }
 
-    let cache = BasisCache::default_location().expect("a cache folder");
-    let spec = BasisSpec::default_for(20);
+    // In test mode, the small basis stored in a scratch folder (removed on return).
+    let scratch = test_mode().then(|| tempfile::tempdir().expect("a temporary folder"));
+    let (cache, spec) = match &scratch {
+        Some(dir) => {
+            let cache = BasisCache::at(dir.path().to_path_buf());
+            let spec = check_basis_spec(20);
+            cache.store(&spec, &default_basis(20)).expect("stored");
+            (cache, spec)
+        }
+        None => (
+            BasisCache::default_location().expect("a cache folder"),
+            BasisSpec::default_for(20),
+        ),
+    };
     c.bench_function("basis_cache_load_k20", |b| {
         b.iter(|| black_box(cache.load(&spec).expect("valid cache").expect("cached")))
     });
@@ -112,7 +143,7 @@ fn painted(k: usize) -> (SparseTable, Solver) {
 /// changed pixels and K: the cost is O(changed bins · K²) plus the K × K solve.
 fn dab_scaling(c: &mut Criterion) {
     let mut group = c.benchmark_group("dab_to_coefficients");
-    for k in [10usize, 20, 40] {
+    for &k in ks(&[10, 20, 40]) {
         let (mut table, mut solver) = painted(k);
         let mut changes = Vec::new();
         for pixels in [50u32, 500, 5000] {

@@ -8,43 +8,58 @@
 //! commands ever waiting for the worker (the worker keeps up when that stays small), with the
 //! load average before and after (other work on the machine shows in the figures).
 //! `LATENCY_FRAMES` (240), `LATENCY_RESOLUTION` (512) and `LATENCY_WINDOW` (`1500x900`)
-//! change the run.
+//! change the run. Under `cargo test` (no `--bench` argument) it is a quick check that the
+//! loop works: 12 frames in a 1000 × 700 window on a 128² canvas with a tiny basis
+//! built in memory.
 
 use burnish::app::{AppConfig, BurnishApp};
-use burnish::basis::BasisCache;
+mod common;
+
+use burnish::basis::{BasisCache, CacheOutcome};
 use burnish::scene::Scene;
 use egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 fn main() {
+    let test_mode = common::test_mode();
     let setting = |name: &str| std::env::var(name).ok();
     let frames: usize = setting("LATENCY_FRAMES")
         .and_then(|v| v.parse().ok())
-        .unwrap_or(240);
+        .unwrap_or(if test_mode { 12 } else { 240 });
     let resolution: u32 = setting("LATENCY_RESOLUTION")
         .and_then(|v| v.parse().ok())
-        .unwrap_or(512);
+        .unwrap_or(if test_mode { 128 } else { 512 });
     let window = setting("LATENCY_WINDOW")
         .and_then(|v| {
             let (w, h) = v.split_once('x')?;
             Some(Vec2::new(w.parse().ok()?, h.parse().ok()?))
         })
-        .unwrap_or(Vec2::new(1500.0, 900.0));
+        .unwrap_or(if test_mode {
+            Vec2::new(1000.0, 700.0)
+        } else {
+            Vec2::new(1500.0, 900.0)
+        });
     let load = || {
         std::fs::read_to_string("/proc/loadavg")
             .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
             .unwrap_or_else(|_| "unknown".into())
     };
     let load_before = load();
-    let settings = burnish::session::BasisSettings::default();
-    let spec = burnish::app::basis_spec(&settings);
-    let cache = BasisCache::default_location().expect("a cache folder");
     let started = Instant::now();
-    let (basis, outcome) = cache
-        .load_or_build(&spec, false, &|_| {})
-        .expect("the default basis");
+    let (basis, outcome) = if test_mode {
+        let basis = common::check_basis(20);
+        (Arc::new(basis), CacheOutcome::Built)
+    } else {
+        let settings = burnish::session::BasisSettings::default();
+        let spec = burnish::app::basis_spec(&settings);
+        let cache = BasisCache::default_location().expect("a cache folder");
+        cache
+            .load_or_build(&spec, false, &|_| {})
+            .expect("the default basis")
+    };
     eprintln!(
         "basis K={} {:?} in {:.1} s",
         basis.components(),

@@ -5,6 +5,8 @@
 //! what painting costs: the evaluation of the pairs the view reads and one gather pass. Also
 //! the evaluation of all 1,313,010 pairs, and sparse-bin updates.
 
+mod common;
+
 use burnish::basis::{BasisSpec, build_basis};
 use burnish::materials::models::{Distribution, Fresnel, Microfacet};
 use burnish::materials::tabulate;
@@ -30,7 +32,12 @@ fn previews(c: &mut Criterion) {
         },
     );
     renderer.set_table(&tabulate(&glossy)).unwrap();
-    let basis = build_basis(&BasisSpec::small(20), &|_| {});
+    // In test mode a tiny basis (K = 20 all the same): only the check is quick.
+    let basis = if common::test_mode() {
+        common::check_basis(20)
+    } else {
+        build_basis(&BasisSpec::small(20), &|_| {})
+    };
     renderer.set_basis(&basis).unwrap();
     let coefficients: Vec<Vec<[f64; 3]>> = (0..2)
         .map(|seed| {
@@ -65,7 +72,14 @@ fn previews(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(4));
-    for size in [512u32, 1024] {
+    // `cargo test` passes no `--bench` and criterion then runs each benchmark once to check
+    // it works: one size is enough there.
+    let sizes: &[u32] = if common::test_mode() {
+        &[256]
+    } else {
+        &[512, 1024]
+    };
+    for &size in sizes {
         let table = |interpolate| PreviewFrame {
             mode: PreviewMode::Table,
             interpolate,

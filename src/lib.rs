@@ -13,6 +13,7 @@ pub mod app;
 pub mod basis;
 pub mod bench;
 pub mod bounded_read;
+pub mod brdf;
 pub mod cli;
 pub mod error;
 pub mod export;

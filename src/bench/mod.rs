@@ -636,9 +636,11 @@ pub fn run_bench(options: &BenchOptions, log: &dyn Fn(&str)) -> Result<BenchRepo
         options,
         machine_before,
         rows,
-        live,
-        stability,
-        next_view,
+        report::Measured {
+            live,
+            stability,
+            next_view,
+        },
         basis_history,
         started.elapsed().as_secs_f64(),
     ))

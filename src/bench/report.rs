@@ -157,17 +157,27 @@ pub struct BenchReport {
     pub seconds: f64,
 }
 
+/// What a run measured besides the per-material rows.
+pub(crate) struct Measured {
+    pub live: LiveLoop,
+    pub stability: Vec<super::stability::StabilityCase>,
+    pub next_view: Vec<super::next_view_trial::NextViewTrial>,
+}
+
 impl BenchReport {
     pub(crate) fn new(
         options: &BenchOptions,
         mut machine: Machine,
         rows: Vec<Row>,
-        live: LiveLoop,
-        stability: Vec<super::stability::StabilityCase>,
-        next_view: Vec<super::next_view_trial::NextViewTrial>,
+        measured: Measured,
         bases: Vec<(usize, String, f64)>,
         seconds: f64,
     ) -> Self {
+        let Measured {
+            live,
+            stability,
+            next_view,
+        } = measured;
         machine.load_after = load_average();
         let aggregates = aggregate(&rows);
         Self {

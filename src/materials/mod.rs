@@ -14,36 +14,9 @@ use crate::table::{
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// A BRDF in the local shading frame (z = normal, x = tangent at φ = 0).
-///
-/// Implementations are reciprocal (`eval(l, v) == eval(v, l)` up to rounding),
-/// non-negative and finite for every pair of unit directions above the horizon.
-pub trait Brdf: Send + Sync + std::fmt::Debug {
-    /// ρ(l, v) in 1/sr, linear RGB. `l` points to the light, `v` to the viewer; both unit, z > 0.
-    fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3];
-
-    /// True when ρ depends on θ_l, θ_v and φ_v − φ_l only, which lets tabulation
-    /// evaluate 45·45·36 pairs instead of 1,313,010.
-    fn is_isotropic(&self) -> bool;
-}
-
-impl<B: Brdf + ?Sized> Brdf for Box<B> {
-    fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
-        (**self).eval(l, v)
-    }
-    fn is_isotropic(&self) -> bool {
-        (**self).is_isotropic()
-    }
-}
-
-impl<B: Brdf + ?Sized> Brdf for std::sync::Arc<B> {
-    fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
-        (**self).eval(l, v)
-    }
-    fn is_isotropic(&self) -> bool {
-        (**self).is_isotropic()
-    }
-}
+/// The trait lives in [`crate::brdf`] so that the table's MERL file can implement it without
+/// depending on the materials.
+pub use crate::brdf::Brdf;
 
 fn to_rgb32(rgb: [f64; 3]) -> [f32; 3] {
     rgb.map(|c| {

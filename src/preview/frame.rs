@@ -1,7 +1,9 @@
 //! What one preview frame shows: plain data the UI edits, and its translation into the
 //! scene pass's uniform block.
 
-use crate::scene::{BACKGROUND, CameraSettings, LightSettings, Projection, SHADOW, Scene};
+use crate::scene::{
+    BACKGROUND, CameraSettings, LightSettings, ORTHO_DISTANCE, OrbitAxes, Projection, SHADOW, Scene,
+};
 use glam::{DMat4, DVec3, DVec4};
 
 /// What ρ the object is drawn with.
@@ -238,8 +240,6 @@ impl PreviewFrame {
     }
 }
 
-/// Distance of the orthographic ray plane from the origin (scene::CameraRig's).
-const ORTHO_DISTANCE: f64 = 2.0;
 /// Shadow map: resolution, and the offsets that keep a lit surface from shadowing itself.
 pub(crate) const SHADOW_MAP_SIZE: u32 = 2048;
 /// Along the normal, in world units: 1.5 shadow-map texels (the map spans 2 units).
@@ -278,9 +278,8 @@ pub(crate) struct FrameUniforms {
 
 /// The camera's frame in world space and its projection, for a `width × height` target.
 struct CameraFrame {
-    toward: DVec3,
-    right: DVec3,
-    up: DVec3,
+    /// The same axes as the scene's camera at this yaw and pitch.
+    axes: OrbitAxes,
     eye: DVec3,
     half_x: f64,
     half_y: f64,
@@ -289,15 +288,12 @@ struct CameraFrame {
 
 impl CameraFrame {
     fn new(camera: &OrbitCamera, width: u32, height: u32) -> Self {
-        let (yaw, pitch) = (camera.yaw_deg.to_radians(), camera.pitch_deg.to_radians());
-        // As scene::CameraRig::new.
-        let toward = DVec3::new(
-            pitch.cos() * yaw.sin(),
-            pitch.sin(),
-            pitch.cos() * yaw.cos(),
-        );
-        let right = DVec3::new(yaw.cos(), 0.0, -yaw.sin());
-        let up = toward.cross(right);
+        let axes = OrbitAxes::new(camera.yaw_deg, camera.pitch_deg);
+        let OrbitAxes {
+            toward_camera: toward,
+            right,
+            up,
+        } = axes;
         let perspective = camera.projection == Projection::Perspective;
         let (eye, half) = if perspective {
             (
@@ -346,9 +342,7 @@ impl CameraFrame {
             )
         };
         Self {
-            toward,
-            right,
-            up,
+            axes,
             eye,
             half_x,
             half_y,
@@ -416,9 +410,9 @@ impl FrameUniforms {
             view_proj: mat4(camera.view_proj),
             light_view_proj: mat4(light_view_proj(light)),
             eye: vec4(camera.eye, if perspective { 1.0 } else { 0.0 }),
-            toward: vec4(camera.toward, 0.0),
-            right: vec4(camera.right, camera.half_x),
-            up: vec4(camera.up, camera.half_y),
+            toward: vec4(camera.axes.toward_camera, 0.0),
+            right: vec4(camera.axes.right, camera.half_x),
+            up: vec4(camera.axes.up, camera.half_y),
             viewport: [w, h, 1.0 / w, 1.0 / h],
             tangent_reference: vec4(DVec3::from_array(frame.tangent_reference), 0.0),
             light0: vec4(light, frame.light.intensity),
@@ -465,6 +459,9 @@ mod tests {
             let rig = CameraRig::new(&scene);
             let frame = PreviewFrame::from_scene(&scene);
             let camera = CameraFrame::new(&frame.camera, 64, 64);
+            // One orbit: the same axes, bit for bit.
+            assert_eq!(camera.axes.toward_camera, rig.toward_camera);
+            assert_eq!((camera.axes.right, camera.axes.up), (rig.right, rig.up));
             assert!((camera.eye - rig.eye).length() < 1e-12);
             assert!((camera.half_y - rig.half_extent).abs() < 1e-12);
             // The point of pixel (10, 50)'s ray nearest the object's centre (so inside the

@@ -3,8 +3,9 @@
 use super::file::{LightSettings, Projection, Scene};
 use glam::DVec3;
 
-/// How far from the origin orthographic rays start: anywhere outside the unit bounding sphere.
-const ORTHO_DISTANCE: f64 = 2.0;
+/// How far from the origin orthographic rays start, and where the preview's orthographic eye
+/// sits: anywhere outside the unit bounding sphere.
+pub const ORTHO_DISTANCE: f64 = 2.0;
 
 /// Unit vector toward the light: (cos(el) sin(az), sin(el), cos(el) cos(az)).
 pub fn light_direction(light: &LightSettings) -> DVec3 {
@@ -13,6 +14,37 @@ pub fn light_direction(light: &LightSettings) -> DVec3 {
         light.azimuth_deg.to_radians(),
     );
     DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
+}
+
+/// The axes of a camera orbiting the origin, shared by the scene's [`CameraRig`] and the
+/// preview's camera: yaw turns it around y (0 puts it on +z, 90 on +x), pitch raises it;
+/// image up is world up at pitch 0 and stays in the orbit's plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrbitAxes {
+    /// Unit vector from the origin toward the camera; the orthographic view direction.
+    pub toward_camera: DVec3,
+    /// Image right and image up in world space (unit, orthogonal to `toward_camera`).
+    pub right: DVec3,
+    pub up: DVec3,
+}
+
+impl OrbitAxes {
+    pub fn new(yaw_deg: f64, pitch_deg: f64) -> Self {
+        let (yaw, pitch) = (yaw_deg.to_radians(), pitch_deg.to_radians());
+        let toward_camera = DVec3::new(
+            pitch.cos() * yaw.sin(),
+            pitch.sin(),
+            pitch.cos() * yaw.cos(),
+        );
+        // Right is +x turned by yaw, which stays well defined looking straight down or up.
+        let right = DVec3::new(yaw.cos(), 0.0, -yaw.sin());
+        let up = toward_camera.cross(right);
+        Self {
+            toward_camera,
+            right,
+            up,
+        }
+    }
 }
 
 /// The camera of a scene: where it is and which ray each pixel casts.
@@ -34,19 +66,14 @@ pub struct CameraRig {
 }
 
 impl CameraRig {
-    /// The camera orbits the origin: yaw turns it around y (0 puts it on +z, 90 on +x),
-    /// pitch raises it; image up is world up at pitch 0 and stays in the orbit's plane.
+    /// The scene's camera on its orbit ([`OrbitAxes`]), square, framing the unit sphere.
     pub fn new(scene: &Scene) -> Self {
         let camera = &scene.camera;
-        let (yaw, pitch) = (camera.yaw_deg.to_radians(), camera.pitch_deg.to_radians());
-        let toward_camera = DVec3::new(
-            pitch.cos() * yaw.sin(),
-            pitch.sin(),
-            pitch.cos() * yaw.cos(),
-        );
-        // Right is +x turned by yaw, which stays well defined looking straight down or up.
-        let right = DVec3::new(yaw.cos(), 0.0, -yaw.sin());
-        let up = toward_camera.cross(right);
+        let OrbitAxes {
+            toward_camera,
+            right,
+            up,
+        } = OrbitAxes::new(camera.yaw_deg, camera.pitch_deg);
         let (eye, half_extent) = match camera.projection {
             Projection::Orthographic => (toward_camera * ORTHO_DISTANCE, 1.0),
             Projection::Perspective => {

@@ -1,6 +1,6 @@
 //! The scene file of SCENE.md: TOML, unknown keys refused, missing keys defaulted.
 
-use super::object::BuiltinShape;
+use super::source::{BuiltinShape, ObjectSource};
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
 use serde::{Deserialize, Serialize};
@@ -63,14 +63,6 @@ pub enum Projection {
     #[default]
     Orthographic,
     Perspective,
-}
-
-/// Where the object's geometry comes from.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum ObjectSource {
-    Builtin(BuiltinShape),
-    /// An .obj file, resolved against the scene file's directory.
-    Obj(PathBuf),
 }
 
 impl Default for Scene {

@@ -22,16 +22,17 @@ mod object;
 mod render;
 mod samples;
 mod shapes;
+mod source;
 
-pub use camera::{CameraRig, light_direction};
-pub use file::{CameraSettings, LightSettings, MAX_RESOLUTION, ObjectSource, Projection, Scene};
+pub use camera::{CameraRig, ORTHO_DISTANCE, OrbitAxes, light_direction};
+pub use file::{CameraSettings, LightSettings, MAX_RESOLUTION, Projection, Scene};
 pub use gbuffer::{GBuffer, SurfacePoint, tangent_frame};
 pub use image_files::{
     decode_painting, decode_png_linear, read_painting, read_png_linear, srgb_decode, srgb_encode,
     write_image, write_png,
 };
 pub use mesh::Mesh;
-pub use object::{BuiltinShape, Object};
+pub use object::Object;
 pub use render::{
     BACKGROUND, GUIDE_ALBEDO, SHADOW, guide_image, guide_pixel, render_brdf, render_table,
 };
@@ -40,3 +41,4 @@ pub use samples::{
     paint_range_of, sample_pixel, sample_pixel_in, samples_from_file, samples_from_image,
     samples_from_image_in,
 };
+pub use source::{BuiltinShape, ObjectSource};

@@ -1,43 +1,12 @@
 //! The scene's object: an exact analytic sphere, or a triangle mesh with a BVH.
 
 use super::bvh::Bvh;
-use super::file::ObjectSource;
 use super::mesh::Mesh;
 use super::shapes;
+use super::source::{BuiltinShape, ObjectSource};
 use crate::error::Result;
 use glam::DVec3;
 use std::path::Path;
-
-/// The built-in shapes a scene may name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BuiltinShape {
-    /// The unit sphere, intersected analytically (exact normals, no tessellation).
-    Sphere,
-    /// A ring tilted toward the camera.
-    Torus,
-    /// A cube with rounded edges, turned to show three faces.
-    RoundedCube,
-    /// A smoothly noise-displaced sphere.
-    Blob,
-}
-
-impl BuiltinShape {
-    pub const ALL: [BuiltinShape; 4] = [Self::Sphere, Self::Torus, Self::RoundedCube, Self::Blob];
-
-    /// The name scene files use.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Sphere => "sphere",
-            Self::Torus => "torus",
-            Self::RoundedCube => "rounded-cube",
-            Self::Blob => "blob",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|s| s.name() == name)
-    }
-}
 
 /// Geometry centred at the origin inside the unit sphere, ready for ray casting.
 #[derive(Clone, Debug)]
@@ -189,13 +158,5 @@ mod tests {
         assert!((t - 1.0).abs() < 1e-15);
         assert!(sphere_hit(DVec3::new(0.0, 0.0, 3.0), DVec3::Z, 0.0).is_none());
         assert!(sphere_hit(DVec3::new(2.0, 0.0, 3.0), -DVec3::Z, 0.0).is_none());
-    }
-
-    #[test]
-    fn names_round_trip() {
-        for shape in BuiltinShape::ALL {
-            assert_eq!(BuiltinShape::from_name(shape.name()), Some(shape));
-        }
-        assert_eq!(BuiltinShape::from_name("cube"), None);
     }
 }

@@ -2,8 +2,8 @@
 //! BRDF exactly as a perfect painter would paint them (TABLE.md: L = π · ρ · cos θ_l).
 
 use super::gbuffer::{GBuffer, SurfacePoint};
+use crate::brdf::Brdf;
 use crate::image_io::RgbImage;
-use crate::materials::Brdf;
 use crate::table::{SymTable, direction_index};
 use glam::DVec3;
 use rayon::prelude::*;

@@ -452,13 +452,13 @@ fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
         None => {
             if ui
                 .small_button("Load reference…")
-                .on_hover_text("A BRDF to compare with: an EXR table or a MERL binary")
+                .on_hover_text("A BRDF to compare with: an EXR table, a MERL binary or a .bsdf")
                 .clicked()
             {
                 super::actions::pick_open(
                     app,
                     "Load reference material",
-                    &["exr", "binary"],
+                    &["exr", "binary", "bsdf"],
                     super::Action::LoadReference,
                 );
             }

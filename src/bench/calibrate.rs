@@ -22,7 +22,7 @@ use crate::scene::{
     samples_from_image_in,
 };
 use crate::solver::{
-    BinChange, Policy, PriorModel, Reconstruction, Regularization, Solver, SparseTable,
+    BinChange, KnotSpacing, Policy, PriorModel, Reconstruction, Regularization, Solver, SparseTable,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -47,8 +47,14 @@ impl Candidate {
             format!("global α={}", self.alpha)
         } else {
             format!(
-                "bands={} α={} ρ={} β={} κ={}",
-                m.bands, self.alpha, m.band_correlation, m.brightness_exponent, m.brightness_floor
+                "bands={} {} ℓ={} α={} ρ={} β={} κ={}",
+                m.bands,
+                m.knots.name(),
+                m.band_length,
+                self.alpha,
+                m.band_correlation,
+                m.brightness_exponent,
+                m.brightness_floor
             )
         }
     }
@@ -103,29 +109,6 @@ impl CalibrateOptions {
     /// The run whose result the default constants come from: 4 folds of the default database
     /// size, 6 test materials each, a grid around the localised prior and the global prior.
     pub fn standard(cache: BasisCache) -> Self {
-        let mut candidates = Vec::new();
-        for alpha in [1.0, 3.0, 10.0, 30.0] {
-            candidates.push(Candidate {
-                alpha,
-                model: PriorModel::GLOBAL,
-            });
-        }
-        for alpha in [3.0, 10.0, 30.0] {
-            for band_correlation in [0.8, 0.9, 0.97] {
-                for (brightness_exponent, brightness_floor) in [(0.0, 1.0), (0.5, 0.3), (1.0, 0.3)]
-                {
-                    candidates.push(Candidate {
-                        alpha,
-                        model: PriorModel {
-                            band_correlation,
-                            brightness_exponent,
-                            brightness_floor,
-                            ..PriorModel::CALIBRATED
-                        },
-                    });
-                }
-            }
-        }
         Self {
             cache,
             folds: 4,
@@ -133,8 +116,72 @@ impl CalibrateOptions {
             components: BasisSpec::DEFAULT_COMPONENTS,
             tests_per_fold: 6,
             resolution: 256,
-            candidates,
+            candidates: Grid::standard().candidates(),
         }
+    }
+}
+
+/// The candidates of a run as a grid: the global prior at each α, and the localised prior at
+/// every combination of α, ρ and (β, κ).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    pub alphas: Vec<f64>,
+    /// α values of the global prior (none: the global prior is not scored).
+    pub global_alphas: Vec<f64>,
+    pub band_correlations: Vec<f64>,
+    /// (β, κ) pairs.
+    pub brightness: Vec<(f64, f64)>,
+    pub knots: Vec<KnotSpacing>,
+    /// ℓ values ([`PriorModel::band_length`]).
+    pub band_lengths: Vec<f64>,
+}
+
+impl Grid {
+    /// The grid of the first calibration run.
+    pub fn standard() -> Self {
+        Self {
+            alphas: vec![3.0, 10.0, 30.0],
+            global_alphas: vec![1.0, 3.0, 10.0, 30.0],
+            band_correlations: vec![0.8, 0.9, 0.97],
+            brightness: vec![(0.0, 1.0), (0.5, 0.3), (1.0, 0.3)],
+            knots: vec![KnotSpacing::Uniform],
+            band_lengths: vec![0.0],
+        }
+    }
+
+    pub fn candidates(&self) -> Vec<Candidate> {
+        let mut candidates: Vec<Candidate> = self
+            .global_alphas
+            .iter()
+            .map(|&alpha| Candidate {
+                alpha,
+                model: PriorModel::GLOBAL,
+            })
+            .collect();
+        for (&knots, &band_length) in self
+            .knots
+            .iter()
+            .flat_map(|k| self.band_lengths.iter().map(move |l| (k, l)))
+        {
+            for &alpha in &self.alphas {
+                for &band_correlation in &self.band_correlations {
+                    for &(brightness_exponent, brightness_floor) in &self.brightness {
+                        candidates.push(Candidate {
+                            alpha,
+                            model: PriorModel {
+                                band_correlation,
+                                brightness_exponent,
+                                brightness_floor,
+                                knots,
+                                band_length,
+                                ..PriorModel::CALIBRATED
+                            },
+                        });
+                    }
+                }
+            }
+        }
+        candidates
     }
 }
 
@@ -288,9 +335,12 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
                             );
                             solver.apply_all(changes);
                             let solution = solver.solve();
-                            let estimate =
-                                Reconstruction::new(basis.clone(), &solution.coefficients)
-                                    .materialize();
+                            let estimate = Reconstruction::with_knots(
+                                basis.clone(),
+                                &solution.coefficients,
+                                c.model.knots,
+                            )
+                            .materialize();
                             let e = table_errors(&truth, &estimate);
                             (e.relative_rmse, e.log_rmse)
                         })

@@ -2,7 +2,7 @@
 //! the database, never on the bench's held-out materials.
 
 use crate::basis::BasisCache;
-use crate::bench::calibrate::{CalibrateOptions, calibrate};
+use crate::bench::calibrate::{CalibrateOptions, Grid, calibrate};
 
 #[derive(clap::Args, Debug)]
 #[command(
@@ -25,6 +25,91 @@ pub struct CalibrateArgs {
     /// Print the ranking as one JSON array on the last line.
     #[arg(long)]
     pub json: bool,
+    /// The localised prior's α values to score (default: 3,10,30).
+    #[arg(long, value_delimiter = ',')]
+    pub alphas: Option<Vec<f64>>,
+    /// The global prior's α values to score; `none` scores no global prior (default: 1,3,10,30).
+    #[arg(long, value_delimiter = ',')]
+    pub global_alphas: Option<Vec<String>>,
+    /// Band correlations ρ to score, each in (0, 1) (default: 0.8,0.9,0.97).
+    #[arg(long, value_delimiter = ',')]
+    pub band_correlations: Option<Vec<f64>>,
+    /// Brightness weights to score as β:κ pairs (default: 0:1,0.5:0.3,1:0.3).
+    #[arg(long, value_delimiter = ',')]
+    pub brightness: Option<Vec<String>>,
+    /// Knot spacings over θ_d to score: uniform, cosine, sine-squared, cosine-squared (default: uniform).
+    #[arg(long, value_delimiter = ',')]
+    pub knots: Option<Vec<crate::solver::KnotSpacing>>,
+    /// Reaches ℓ ≥ 0 of the nearby sets' extra correlation to score (default: 0).
+    #[arg(long, value_delimiter = ',')]
+    pub band_lengths: Option<Vec<f64>>,
+}
+
+/// The candidate grid: the standard one, with each list the command line gives replaced.
+fn grid(args: &CalibrateArgs) -> anyhow::Result<Grid> {
+    let positive = |name: &str, v: &[f64]| -> anyhow::Result<()> {
+        anyhow::ensure!(
+            v.iter().all(|x| x.is_finite() && *x > 0.0),
+            "--{name} takes positive numbers"
+        );
+        Ok(())
+    };
+    let mut grid = Grid::standard();
+    if let Some(alphas) = &args.alphas {
+        positive("alphas", alphas)?;
+        grid.alphas = alphas.clone();
+    }
+    if let Some(list) = &args.global_alphas {
+        grid.global_alphas = if list.iter().any(|s| s == "none") {
+            Vec::new()
+        } else {
+            let values = list
+                .iter()
+                .map(|s| s.parse::<f64>())
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| anyhow::anyhow!("--global-alphas: {e}"))?;
+            positive("global-alphas", &values)?;
+            values
+        };
+    }
+    if let Some(rhos) = &args.band_correlations {
+        anyhow::ensure!(
+            rhos.iter().all(|r| *r > 0.0 && *r < 1.0),
+            "--band-correlations takes numbers strictly between 0 and 1"
+        );
+        grid.band_correlations = rhos.clone();
+    }
+    if let Some(pairs) = &args.brightness {
+        grid.brightness = pairs
+            .iter()
+            .map(|p| {
+                let (b, k) = p
+                    .split_once(':')
+                    .ok_or_else(|| anyhow::anyhow!("--brightness takes β:κ pairs, not '{p}'"))?;
+                let (b, k): (f64, f64) = (b.parse()?, k.parse()?);
+                anyhow::ensure!(
+                    b.is_finite() && b >= 0.0 && k.is_finite() && k > 0.0,
+                    "--brightness '{p}': β ≥ 0 and κ > 0"
+                );
+                Ok((b, k))
+            })
+            .collect::<anyhow::Result<_>>()?;
+    }
+    if let Some(knots) = &args.knots {
+        grid.knots = knots.clone();
+    }
+    if let Some(lengths) = &args.band_lengths {
+        anyhow::ensure!(
+            lengths.iter().all(|l| l.is_finite() && *l >= 0.0),
+            "--band-lengths takes numbers ≥ 0"
+        );
+        grid.band_lengths = lengths.clone();
+    }
+    anyhow::ensure!(
+        !grid.candidates().is_empty(),
+        "the grid has no candidate to score"
+    );
+    Ok(grid)
 }
 
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
@@ -34,6 +119,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     );
     anyhow::ensure!(args.tests >= 1, "--tests must be at least 1");
     let mut options = CalibrateOptions::standard(BasisCache::default_location()?);
+    options.candidates = grid(args)?.candidates();
     options.folds = args.folds;
     options.tests_per_fold = args.tests;
     if let Some(materials) = args.materials {
@@ -79,6 +165,8 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
                     "band_correlation": s.candidate.model.band_correlation,
                     "brightness_exponent": s.candidate.model.brightness_exponent,
                     "brightness_floor": s.candidate.model.brightness_floor,
+                    "knots": s.candidate.model.knots.name(),
+                    "band_length": s.candidate.model.band_length,
                     "geometric_mean_rel_rmse": s.geometric_mean_relative_rmse,
                     "rel_rmse_1view": s.mean_relative_rmse_1view,
                     "median_rel_rmse_1view": s.median_relative_rmse_1view,
@@ -92,4 +180,74 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::Value::Array(rows));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::KnotSpacing;
+
+    fn args() -> CalibrateArgs {
+        CalibrateArgs {
+            folds: 4,
+            tests: 6,
+            materials: None,
+            json: false,
+            alphas: None,
+            global_alphas: None,
+            band_correlations: None,
+            brightness: None,
+            knots: None,
+            band_lengths: None,
+        }
+    }
+
+    #[test]
+    fn the_grid_is_the_standard_one_with_each_given_list_replaced() {
+        assert_eq!(grid(&args()).unwrap(), Grid::standard());
+        let g = grid(&CalibrateArgs {
+            alphas: Some(vec![10.0]),
+            global_alphas: Some(vec!["none".into()]),
+            band_correlations: Some(vec![0.97, 0.99]),
+            brightness: Some(vec!["1:0.3".into()]),
+            knots: Some(vec![KnotSpacing::Uniform, KnotSpacing::Cosine]),
+            ..args()
+        })
+        .unwrap();
+        let candidates = g.candidates();
+        assert_eq!(candidates.len(), 4);
+        assert!(candidates.iter().all(|c| c.alpha == 10.0
+            && c.model.brightness_exponent == 1.0
+            && c.model.brightness_floor == 0.3));
+        assert!(
+            candidates
+                .iter()
+                .any(|c| c.model.knots == KnotSpacing::Cosine && c.model.band_correlation == 0.99)
+        );
+    }
+
+    #[test]
+    fn a_grid_with_bad_values_or_no_candidate_is_refused() {
+        for bad in [
+            CalibrateArgs {
+                band_correlations: Some(vec![1.0]),
+                ..args()
+            },
+            CalibrateArgs {
+                alphas: Some(vec![-1.0]),
+                ..args()
+            },
+            CalibrateArgs {
+                brightness: Some(vec!["1".into()]),
+                ..args()
+            },
+            CalibrateArgs {
+                global_alphas: Some(vec!["none".into()]),
+                knots: Some(vec![]),
+                ..args()
+            },
+        ] {
+            assert!(grid(&bad).is_err(), "{bad:?}");
+        }
+    }
 }

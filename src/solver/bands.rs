@@ -6,15 +6,75 @@
 //! in θ_d (a trend between two painted slices extrapolates to a retro-reflective peak near
 //! θ_d = 0, or a Fresnel peak near 90°) more tightly than materials outside it do. The
 //! reconstruction therefore takes its coefficients from [`BANDS`] sets X_j, one at each knot
-//! θ_j = j·90°/(BANDS − 1), blended with hat functions: x(θ_d) = (1 − f)·X_a + f·X_(a+1).
-//! The prior correlates the sets (see `ridge`), so a painted slice still informs the whole
-//! table, but less so the further away it lies in θ_d.
+//! θ_j, blended with hat functions: x(θ_d) = (1 − f)·X_a + f·X_(a+1), where the knots sit as
+//! [`KnotSpacing`] says ([`DEFAULT_KNOTS`] for the default prior). The prior correlates the
+//! sets (see `ridge`), so a painted slice still informs the whole table, but less so the
+//! further away it lies in θ_d.
 
 use crate::table::{PAIRS, bin_centre, for_each_pair};
 use std::sync::OnceLock;
 
 /// Number of coefficient sets (knots over θ_d ∈ [0°, 90°]).
 pub const BANDS: usize = 5;
+
+/// Where the knots sit over θ_d ∈ [0°, 90°].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum KnotSpacing {
+    /// θ_j = j·90°/(B − 1): 0°, 22.5°, 45°, 67.5°, 90°.
+    Uniform,
+    /// Uniform in 1 − cos θ_d, the variable of Schlick's Fresnel term: 0°, 41°, 60°, 76°, 90°.
+    /// Knots are dense where Fresnel and shadowing change fast (grazing) and sparse where a
+    /// BRDF's shape barely changes with θ_d, so a slice painted at small θ_d also sets the
+    /// table at θ_d = 0 (back-scatter at normal incidence, where renders look most) by
+    /// interpolation rather than through the prior alone.
+    Cosine,
+    /// Uniform in sin² θ_d: 0°, 30°, 45°, 60°, 90°.
+    SineSquared,
+    /// Uniform in (1 − cos θ_d)²: 0°, 60°, 73°, 82°, 90°. Flatter still at small θ_d.
+    CosineSquared,
+}
+
+impl KnotSpacing {
+    pub const ALL: [Self; 4] = [
+        Self::Uniform,
+        Self::Cosine,
+        Self::SineSquared,
+        Self::CosineSquared,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Uniform => "uniform",
+            Self::Cosine => "cosine",
+            Self::SineSquared => "sine-squared",
+            Self::CosineSquared => "cosine-squared",
+        }
+    }
+
+    /// The knot coordinate of `theta_d` (radians), from 0 at 0° to 1 at 90°.
+    fn coordinate(self, theta_d: f64) -> f64 {
+        match self {
+            Self::Uniform => theta_d / std::f64::consts::FRAC_PI_2,
+            Self::Cosine => 1.0 - theta_d.cos(),
+            Self::SineSquared => theta_d.sin().powi(2),
+            Self::CosineSquared => (1.0 - theta_d.cos()).powi(2),
+        }
+    }
+}
+
+impl std::str::FromStr for KnotSpacing {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown knot spacing '{s}' (uniform, cosine, sine-squared, cosine-squared)"
+                )
+            })
+    }
+}
 
 /// Where a pair lies between the knots: coefficients (1 − `frac`)·X_`lower` + `frac`·X_(`lower`+1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,16 +84,21 @@ pub struct BandWeights {
 }
 
 impl BandWeights {
-    /// The knot index and blend of half angle `theta_d` (radians), for `bands` knots.
+    /// The knot index and blend of half angle `theta_d` (radians), for `bands` uniform knots.
     pub fn of_theta_d(theta_d: f64, bands: usize) -> Self {
+        Self::of_theta_d_spaced(theta_d, bands, KnotSpacing::Uniform)
+    }
+
+    /// The knot index and blend of half angle `theta_d` (radians), for `bands` knots spaced
+    /// by `spacing`.
+    pub fn of_theta_d_spaced(theta_d: f64, bands: usize, spacing: KnotSpacing) -> Self {
         if bands <= 1 {
             return Self {
                 lower: 0,
                 frac: 0.0,
             };
         }
-        let step = std::f64::consts::FRAC_PI_2 / (bands - 1) as f64;
-        let t = (theta_d / step).clamp(0.0, (bands - 1) as f64);
+        let t = (spacing.coordinate(theta_d) * (bands - 1) as f64).clamp(0.0, (bands - 1) as f64);
         let lower = (t.floor() as usize).min(bands - 2);
         Self {
             lower: lower as u8,
@@ -55,10 +120,24 @@ pub fn theta_d(l_dot_v: f64) -> f64 {
     (0.5 + 0.5 * l_dot_v).clamp(0.0, 1.0).sqrt().acos()
 }
 
-/// The band weights of every pair at [`BANDS`] knots, computed once.
+/// The knot spacing of the default prior ([`super::PriorModel::CALIBRATED`]), which the
+/// preview's GPU evaluation and [`super::Reconstruction::new`] use.
+pub const DEFAULT_KNOTS: KnotSpacing = KnotSpacing::Uniform;
+
+/// The band weights of every pair at [`BANDS`] knots of the default spacing, computed once.
 pub fn pair_bands() -> &'static [BandWeights] {
-    static TABLE: OnceLock<Vec<BandWeights>> = OnceLock::new();
-    TABLE.get_or_init(|| {
+    pair_bands_spaced(DEFAULT_KNOTS)
+}
+
+/// The band weights of every pair at [`BANDS`] knots spaced by `spacing`, computed once each.
+pub fn pair_bands_spaced(spacing: KnotSpacing) -> &'static [BandWeights] {
+    static TABLES: [OnceLock<Vec<BandWeights>>; KnotSpacing::ALL.len()] =
+        [const { OnceLock::new() }; KnotSpacing::ALL.len()];
+    let slot = KnotSpacing::ALL
+        .iter()
+        .position(|&k| k == spacing)
+        .expect("every spacing is in ALL");
+    TABLES[slot].get_or_init(|| {
         let mut out = vec![
             BandWeights {
                 lower: 0,
@@ -71,7 +150,7 @@ pub fn pair_bands() -> &'static [BandWeights] {
             .collect();
         for_each_pair(|pair, lo, hi| {
             let d = centres[lo as usize].dot(centres[hi as usize]);
-            out[pair] = BandWeights::of_theta_d(theta_d(d), BANDS);
+            out[pair] = BandWeights::of_theta_d_spaced(theta_d(d), BANDS, spacing);
         });
         out
     })
@@ -93,6 +172,25 @@ mod tests {
             assert!((at - deg).abs() < 1e-4, "{deg}: {at}");
         }
         assert_eq!(BandWeights::of_theta_d(1.0, 1).pairs()[1].1, 0.0);
+    }
+
+    #[test]
+    fn spaced_knots_sit_where_their_coordinate_says() {
+        let at = |deg: f64, spacing| {
+            let w = BandWeights::of_theta_d_spaced(f64::to_radians(deg), 5, spacing);
+            w.lower as f64 + w.frac as f64
+        };
+        for spacing in KnotSpacing::ALL {
+            assert!(at(0.0, spacing).abs() < 1e-6);
+            assert!((at(90.0, spacing) - 4.0).abs() < 1e-5);
+            assert_eq!(spacing.name().parse::<KnotSpacing>(), Ok(spacing));
+        }
+        // Cosine: knots at acos(1 − j/4) = 0°, 41.4°, 60°, 75.5°, 90°.
+        assert!((at(60.0, KnotSpacing::Cosine) - 2.0).abs() < 1e-5);
+        assert!((at(41.409_622, KnotSpacing::Cosine) - 1.0).abs() < 1e-5);
+        // Sine squared: 0°, 30°, 45°, 60°, 90°.
+        assert!((at(30.0, KnotSpacing::SineSquared) - 1.0).abs() < 1e-5);
+        assert!((at(45.0, KnotSpacing::SineSquared) - 2.0).abs() < 1e-5);
     }
 
     #[test]

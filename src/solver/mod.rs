@@ -2,13 +2,16 @@
 //! cached basis rows, and the lazy reconstruction.
 
 pub mod bands;
+mod condition;
+pub mod prior;
 pub mod reconstruction;
 pub mod ridge;
 pub mod sparse;
 
-pub use bands::{BANDS, BandWeights, pair_bands};
+pub use bands::{BANDS, BandWeights, DEFAULT_KNOTS, KnotSpacing, pair_bands, pair_bands_spaced};
+pub use prior::{DEFAULT_ALPHA, PriorModel, Regularization};
 pub use reconstruction::Reconstruction;
-pub use ridge::{DEFAULT_ALPHA, Posterior, PriorModel, Regularization, Solution, Solver};
+pub use ridge::{Posterior, Solution, Solver};
 pub use sparse::{BinChange, Bound, Bounds, EXACT, Policy, SampleKey, SampleRejected, SparseTable};
 
 /// Runs faer's dense algorithms (the solver's factorisations and eigenvalues, the basis

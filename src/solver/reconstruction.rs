@@ -1,7 +1,7 @@
 //! The reconstructed BRDF: evaluated lazily, entry by entry, for what a view needs, or
 //! materialised in parallel as a full table for export.
 
-use super::bands::{BANDS, pair_bands};
+use super::bands::{BANDS, DEFAULT_KNOTS, KnotSpacing, pair_bands_spaced};
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::table::{DIRECTIONS, DirIndex, PHI_BINS, Rgb, SymTable, pair_index};
 use rayon::prelude::*;
@@ -16,6 +16,8 @@ pub struct Reconstruction {
     basis: Arc<Basis>,
     /// Coefficient sets: 1 or [`BANDS`].
     bands: usize,
+    /// Where the sets' knots sit over θ_d (when `bands` > 1).
+    knots: KnotSpacing,
     /// Coefficients by channel, bands × K each (band-major), in f32 for the evaluation loops.
     coefficients: [Vec<f32>; 3],
 }
@@ -24,6 +26,12 @@ impl Reconstruction {
     /// The reconstruction for coefficients `x`: K rows of R, G, B (one set), or [`BANDS`] × K
     /// (a solution of the localised prior, band-major).
     pub fn new(basis: Arc<Basis>, x: &[[f64; 3]]) -> Self {
+        Self::with_knots(basis, x, DEFAULT_KNOTS)
+    }
+
+    /// As [`Self::new`], for a solution of a prior whose knots sit at `knots` (the default
+    /// prior's are [`DEFAULT_KNOTS`]; the calibration scores others).
+    pub fn with_knots(basis: Arc<Basis>, x: &[[f64; 3]], knots: KnotSpacing) -> Self {
         let k = basis.components();
         let bands = x.len() / k.max(1);
         assert!(
@@ -35,6 +43,7 @@ impl Reconstruction {
         Self {
             basis,
             bands,
+            knots,
             coefficients,
         }
     }
@@ -93,7 +102,7 @@ impl Reconstruction {
     fn evaluator(&self) -> Evaluator<'_> {
         Evaluator {
             k: self.basis.components(),
-            bands: (self.bands > 1).then(pair_bands),
+            bands: (self.bands > 1).then(|| pair_bands_spaced(self.knots)),
             rows: self.basis.rows(),
             means: self.basis.means(),
             references: self.basis.references(),

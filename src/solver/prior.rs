@@ -1,0 +1,241 @@
+//! The prior's shape and strength: how the solver regularises ([`Regularization`]) and the
+//! localised, brightness-weighted model ([`PriorModel`]) with the constants `burnish calibrate`
+//! chose (see `ridge` for the model they enter).
+
+use super::bands::{BANDS, BandWeights, DEFAULT_KNOTS, KnotSpacing, pair_bands_spaced};
+use faer::linalg::solvers::DenseSolveCore;
+use faer::{Mat, Side};
+
+/// How the solver regularises.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Regularization {
+    /// The prior with the calibrated α ([`DEFAULT_ALPHA`]).
+    #[default]
+    Auto,
+    /// The prior with α chosen by generalised cross-validation on the samples.
+    Gcv,
+    /// The prior with a fixed noise variance α (mapped domain).
+    Prior { alpha: f64 },
+    /// Plain ridge λI on the coefficients (for comparison; not recommended).
+    Ridge { lambda: f64 },
+}
+
+impl std::str::FromStr for Regularization {
+    type Err = String;
+    /// `auto`, `gcv`, a number (the prior's α), `prior:α` or `ridge:λ`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let number = |v: &str| -> Result<f64, String> {
+            let x: f64 = v.parse().map_err(|_| format!("'{v}' is not a number"))?;
+            if x.is_finite() && x > 0.0 {
+                Ok(x)
+            } else {
+                Err(format!("'{v}' must be a positive number"))
+            }
+        };
+        match s {
+            "auto" => Ok(Self::Auto),
+            "gcv" => Ok(Self::Gcv),
+            _ => match s.split_once(':') {
+                Some(("prior", v)) => Ok(Self::Prior { alpha: number(v)? }),
+                Some(("ridge", v)) => Ok(Self::Ridge { lambda: number(v)? }),
+                Some((kind, _)) => Err(format!(
+                    "unknown regularisation '{kind}' (auto, prior:α, ridge:λ)"
+                )),
+                None => Ok(Self::Prior { alpha: number(s)? }),
+            },
+        }
+    }
+}
+
+/// The text [`FromStr`](std::str::FromStr) reads back: `auto`, `gcv`, `prior:α` or `ridge:λ`.
+impl std::fmt::Display for Regularization {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Auto => f.write_str("auto"),
+            Self::Gcv => f.write_str("gcv"),
+            Self::Prior { alpha } => write!(f, "prior:{}", Short(*alpha)),
+            Self::Ridge { lambda } => write!(f, "ridge:{}", Short(*lambda)),
+        }
+    }
+}
+
+/// A number as a person writes it: plain between 10⁻³ and 10⁶, in exponent form outside
+/// (`{}` alone spells 1e-300 with three hundred digits). Both forms parse back exactly.
+struct Short(f64);
+
+impl std::fmt::Display for Short {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
+        }
+    }
+}
+
+/// The shape of the prior and of the likelihood's weights, beyond α.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PriorModel {
+    /// Coefficient sets over θ_d: 1 is the global prior, [`BANDS`] the localised one.
+    pub bands: usize,
+    /// ρ: the prior correlation of two knots' coefficient sets (below 1 when `bands` > 1).
+    pub band_correlation: f64,
+    /// β: how much more a brighter bin counts (0: every bin alike).
+    pub brightness_exponent: f64,
+    /// κ: the brightness weight's floor, as a fraction of the mean brightness L̄.
+    pub brightness_floor: f64,
+    /// Where the sets' knots sit over θ_d (when `bands` > 1).
+    pub knots: KnotSpacing,
+    /// ℓ: how far (in knot coordinates, 0 to 1 over the knots) the extra correlation of nearby
+    /// sets reaches; 0 for none (every pair of sets correlated by ρ alike).
+    pub band_length: f64,
+}
+
+impl PriorModel {
+    /// The default: localised and brightness-weighted (constants: see the module documentation).
+    pub const CALIBRATED: Self = Self {
+        bands: BANDS,
+        band_correlation: CALIBRATED_BAND_CORRELATION,
+        brightness_exponent: CALIBRATED_BRIGHTNESS_EXPONENT,
+        brightness_floor: CALIBRATED_BRIGHTNESS_FLOOR,
+        knots: DEFAULT_KNOTS,
+        band_length: CALIBRATED_BAND_LENGTH,
+    };
+
+    /// Nielsen et al.'s prior: one coefficient set, every bin alike.
+    pub const GLOBAL: Self = Self {
+        bands: 1,
+        band_correlation: 1.0,
+        brightness_exponent: 0.0,
+        brightness_floor: 1.0,
+        knots: DEFAULT_KNOTS,
+        band_length: 0.0,
+    };
+
+    /// Coefficient rows of a solution: `bands` × K.
+    pub fn rows(&self, components: usize) -> usize {
+        self.bands * components
+    }
+
+    pub(super) fn band_weights(&self, pair: u32) -> BandWeights {
+        if self.bands == 1 {
+            BandWeights {
+                lower: 0,
+                frac: 0.0,
+            }
+        } else {
+            pair_bands_spaced(self.knots)[pair as usize]
+        }
+    }
+
+    /// The prior correlation of sets i and j: ρ + (1 − ρ)·exp(−|u_i − u_j|/ℓ), u the knots'
+    /// coordinate in [0, 1] and ℓ [`Self::band_length`]. ℓ = 0 is the equicorrelated prior,
+    /// (1 − ρ)I + ρ11ᵀ; a longer ℓ ties neighbouring sets closer than distant ones.
+    pub fn band_correlation_between(&self, i: usize, j: usize) -> f64 {
+        if i == j || self.bands == 1 {
+            return 1.0;
+        }
+        let rho = self.band_correlation;
+        if self.band_length <= 0.0 {
+            return rho;
+        }
+        let distance = i.abs_diff(j) as f64 / (self.bands - 1) as f64;
+        rho + (1.0 - rho) * (-distance / self.band_length).exp()
+    }
+
+    /// The prior precision across the sets of one component, for unit variance: the inverse
+    /// of the correlation matrix of [`Self::band_correlation_between`], row-major.
+    pub(super) fn band_precision(&self) -> Vec<f64> {
+        let b = self.bands;
+        let c = Mat::<f64>::from_fn(b, b, |i, j| self.band_correlation_between(i, j));
+        let inverse = match c.llt(Side::Lower) {
+            Ok(llt) => llt.inverse(),
+            // A correlation of this form is positive definite for ρ < 1; this guards rounding.
+            Err(_) => Mat::<f64>::identity(b, b),
+        };
+        (0..b * b).map(|n| inverse[(n / b, n % b)]).collect()
+    }
+}
+
+impl Default for PriorModel {
+    fn default() -> Self {
+        Self::CALIBRATED
+    }
+}
+
+/// Constants of the default model (see the module documentation for how they were chosen).
+pub const DEFAULT_ALPHA: f64 = CALIBRATED_ALPHA;
+const CALIBRATED_ALPHA: f64 = 10.0;
+const CALIBRATED_BAND_CORRELATION: f64 = 0.9;
+const CALIBRATED_BAND_LENGTH: f64 = 0.0;
+const CALIBRATED_BRIGHTNESS_EXPONENT: f64 = 1.0;
+const CALIBRATED_BRIGHTNESS_FLOOR: f64 = 0.3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ℓ = 0 is the equicorrelated prior, whose precision has a closed form; any ℓ gives the
+    /// inverse of its correlation matrix, and nearer sets correlate more.
+    #[test]
+    fn the_band_precision_inverts_the_band_correlation() {
+        let b = BANDS;
+        let equicorrelated = PriorModel {
+            band_length: 0.0,
+            ..PriorModel::CALIBRATED
+        };
+        let rho = equicorrelated.band_correlation;
+        let precision = equicorrelated.band_precision();
+        for i in 0..b {
+            for j in 0..b {
+                let diagonal = if i == j { 1.0 } else { 0.0 };
+                let closed = (diagonal - rho / (1.0 - rho + b as f64 * rho)) / (1.0 - rho);
+                assert!((precision[i * b + j] - closed).abs() < 1e-9 * closed.abs().max(1.0));
+            }
+        }
+        let near = PriorModel {
+            band_length: 0.3,
+            band_correlation: 0.5,
+            ..PriorModel::CALIBRATED
+        };
+        assert!(near.band_correlation_between(0, 1) > near.band_correlation_between(0, 4));
+        assert!(near.band_correlation_between(0, 4) > 0.5);
+        let p = near.band_precision();
+        for i in 0..b {
+            for j in 0..b {
+                let product: f64 = (0..b)
+                    .map(|k| p[i * b + k] * near.band_correlation_between(k, j))
+                    .sum();
+                let identity = if i == j { 1.0 } else { 0.0 };
+                assert!((product - identity).abs() < 1e-9, "({i}, {j}): {product}");
+            }
+        }
+    }
+
+    #[test]
+    fn regularization_parses() {
+        assert_eq!("auto".parse::<Regularization>(), Ok(Regularization::Auto));
+        assert_eq!("gcv".parse::<Regularization>(), Ok(Regularization::Gcv));
+        assert_eq!(
+            "0.5".parse::<Regularization>(),
+            Ok(Regularization::Prior { alpha: 0.5 })
+        );
+        assert_eq!(
+            "ridge:2".parse::<Regularization>(),
+            Ok(Regularization::Ridge { lambda: 2.0 })
+        );
+        assert!("-1".parse::<Regularization>().is_err());
+        assert!("nan".parse::<Regularization>().is_err());
+        assert!("foo:1".parse::<Regularization>().is_err());
+        for r in [
+            Regularization::Ridge { lambda: 1e-300 },
+            Regularization::Prior { alpha: 1e12 },
+            Regularization::Prior { alpha: 0.5 },
+        ] {
+            let text = r.to_string();
+            assert!(text.len() < 16, "{text}");
+            assert_eq!(text.parse::<Regularization>(), Ok(r));
+        }
+    }
+}

@@ -290,3 +290,56 @@ fn lazy_evaluation_equals_the_materialised_table() {
     }
     assert_eq!(basis.components(), 20);
 }
+
+/// An 8-bit black pixel says "at most half a step": so close to black that, in the log-mapped
+/// domain the solver fits in, it is as good as a value. It must count as one (at half the
+/// bound), not as a bound the fit may dive under; a bound that spans a wide mapped interval
+/// stays a bound.
+#[test]
+fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
+    use burnish::scene::LDR_BLACK_BOUND;
+    use burnish::solver::Bound;
+    let basis = small_basis(8);
+    let brdf = burnish::materials::models::Lambert {
+        albedo: [0.5, 0.4, 0.3],
+    };
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut lit = Vec::new();
+    for (key, d_l, d_v, rho) in sphere_view_samples(&brdf, 0, 45.0, 30.0, 48) {
+        table.set_sample(key, d_l, d_v, rho, &mut lit).unwrap();
+    }
+    // Black pixels in bins the view did not reach (a grazing light's dark side).
+    let dark: Vec<u32> = (0..40)
+        .map(|t| burnish::table::pair_index(t * 36, 700) as u32)
+        .collect();
+    let solve = |value: f64, bound: Bound| {
+        let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+        solver.apply_all(&lit);
+        for &pair in &dark {
+            solver.apply(&BinChange {
+                pair,
+                before: None,
+                after: Some([value; 3]),
+                bounds: [bound; 3],
+            });
+        }
+        solver.solve().coefficients
+    };
+    let black = LDR_BLACK_BOUND as f64;
+    let as_bound = solve(black, Bound::AtMost);
+    let as_value = solve(black / 2.0, Bound::Exact);
+    for (a, b) in as_bound.iter().zip(&as_value) {
+        for c in 0..3 {
+            assert!((a[c] - b[c]).abs() < 1e-9, "{a:?} against {b:?}");
+        }
+    }
+    // "At most 0.5" spans most of the mapped range: a real bound, not the value 0.25.
+    let wide = solve(0.5, Bound::AtMost);
+    let wide_as_value = solve(0.25, Bound::Exact);
+    assert!(
+        wide.iter()
+            .zip(&wide_as_value)
+            .any(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 1e-3)),
+        "a wide upper bound was taken for a value"
+    );
+}

@@ -9,6 +9,7 @@ mod basis_job;
 mod canvas_panel;
 mod document;
 mod file_jobs;
+mod menus;
 mod preview_panel;
 mod side_panel;
 mod status_bar;
@@ -794,8 +795,8 @@ impl eframe::App for BurnishApp {
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        actions::shortcuts(self, ui.ctx());
-        egui::Panel::top("menu").show(ui, |ui| actions::menu_bar(self, ui));
+        menus::shortcuts(self, ui.ctx());
+        egui::Panel::top("menu").show(ui, |ui| menus::menu_bar(self, ui));
         egui::Panel::bottom("status").show(ui, |ui| status_bar::show(self, ui));
         egui::Panel::left("views")
             .resizable(true)
@@ -806,7 +807,7 @@ impl eframe::App for BurnishApp {
             .default_size(ui.available_width() * 0.4)
             .show(ui, |ui| preview_panel::show(self, ui));
         egui::CentralPanel::default().show(ui, |ui| canvas_panel::show(self, ui));
-        actions::dialogs(self, ui.ctx());
+        menus::dialogs(self, ui.ctx());
         // The frame's strokes and actions are in: write them (or schedule the write) now.
         self.autosave(ui.ctx());
     }

@@ -455,7 +455,7 @@ fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .on_hover_text("A BRDF to compare with: an EXR table, a MERL binary or a .bsdf")
                 .clicked()
             {
-                super::actions::pick_open(
+                super::menus::pick_open(
                     app,
                     "Load reference material",
                     &["exr", "binary", "bsdf"],
@@ -622,7 +622,7 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
         });
     }
     if open_obj {
-        super::actions::pick_open(
+        super::menus::pick_open(
             app,
             "Preview object",
             &["obj"],
@@ -630,7 +630,7 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
         );
     }
     if load_environment {
-        super::actions::pick_open(
+        super::menus::pick_open(
             app,
             "Environment (equirectangular EXR)",
             &["exr"],

@@ -1,6 +1,7 @@
 //! The benchmark's outputs: per-material CSV, aggregates, the JSON line and the Markdown page.
 
 use super::live::LiveLoop;
+pub use super::plot::Aggregate;
 use super::{BenchOptions, Method, Row, policy_name, regularization_name};
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
@@ -67,23 +68,6 @@ fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
         .unwrap_or_else(|_| "unknown".into())
-}
-
-/// One method over every material.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Aggregate {
-    pub method: Method,
-    pub axis: &'static str,
-    pub materials: usize,
-    pub mean_relative_rmse: f64,
-    pub median_relative_rmse: f64,
-    pub mean_log_rmse: f64,
-    pub mean_median_psnr_db: f64,
-    pub mean_time_ms: f64,
-    /// Mean relative RMSE over the materials Lambert + GGX does not describe.
-    pub mean_relative_rmse_not_lambert_ggx: f64,
-    /// Mean relative RMSE over the materials Lambert + GGX describes.
-    pub mean_relative_rmse_lambert_ggx: f64,
 }
 
 fn mean(v: impl Iterator<Item = f64>) -> f64 {

@@ -592,15 +592,11 @@ impl BurnishApp {
         self.canvas_view.mark_dirty(changes.dirty);
         // The worker hears what each pixel says under the view's rule: an unpainted pixel
         // that counts as shown states the base under it.
-        let edits = changes
-            .pixels
-            .iter()
-            .map(|c| crate::worker::PixelEdit {
-                pixel: c.pixel,
-                before: doc.statement(c.pixel, c.before),
-                after: doc.statement(c.pixel, c.after),
-            })
-            .collect();
+        let mut edits = changes.pixels;
+        for c in &mut edits {
+            c.before = doc.statement(c.pixel, c.before);
+            c.after = doc.statement(c.pixel, c.after);
+        }
         self.worker.send(Command::Pixels {
             view: doc.id,
             edits,

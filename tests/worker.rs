@@ -3,9 +3,10 @@
 
 mod common;
 
+use burnish::paint::PixelChange;
 use burnish::scene::{GBuffer, Object, Scene, render_brdf, samples_from_image};
 use burnish::solver::{Policy, Regularization, SampleKey, Solver, SparseTable};
-use burnish::worker::{Command, PixelEdit, Worker};
+use burnish::worker::{Command, Worker};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -102,7 +103,7 @@ fn dabs_in_any_batching_give_the_batch_solution() {
     for (i, chunk) in paint.chunks(97).enumerate() {
         let edits = chunk
             .iter()
-            .map(|&(pixel, colour)| PixelEdit {
+            .map(|&(pixel, colour)| PixelChange {
                 pixel,
                 before: None,
                 after: Some(colour),
@@ -162,7 +163,7 @@ fn erasing_every_pixel_returns_to_the_mean_material() {
         view: 0,
         edits: paint
             .iter()
-            .map(|&(pixel, colour)| PixelEdit {
+            .map(|&(pixel, colour)| PixelChange {
                 pixel,
                 before: Some(colour),
                 after: None,

@@ -9,6 +9,7 @@ mod basis_job;
 mod canvas_panel;
 mod document;
 mod file_jobs;
+mod menus;
 mod preview_panel;
 mod side_panel;
 mod status_bar;
@@ -591,15 +592,11 @@ impl BurnishApp {
         self.canvas_view.mark_dirty(changes.dirty);
         // The worker hears what each pixel says under the view's rule: an unpainted pixel
         // that counts as shown states the base under it.
-        let edits = changes
-            .pixels
-            .iter()
-            .map(|c| crate::worker::PixelEdit {
-                pixel: c.pixel,
-                before: doc.statement(c.pixel, c.before),
-                after: doc.statement(c.pixel, c.after),
-            })
-            .collect();
+        let mut edits = changes.pixels;
+        for c in &mut edits {
+            c.before = doc.statement(c.pixel, c.before);
+            c.after = doc.statement(c.pixel, c.after);
+        }
         self.worker.send(Command::Pixels {
             view: doc.id,
             edits,
@@ -794,8 +791,8 @@ impl eframe::App for BurnishApp {
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        actions::shortcuts(self, ui.ctx());
-        egui::Panel::top("menu").show(ui, |ui| actions::menu_bar(self, ui));
+        menus::shortcuts(self, ui.ctx());
+        egui::Panel::top("menu").show(ui, |ui| menus::menu_bar(self, ui));
         egui::Panel::bottom("status").show(ui, |ui| status_bar::show(self, ui));
         egui::Panel::left("views")
             .resizable(true)
@@ -806,7 +803,7 @@ impl eframe::App for BurnishApp {
             .default_size(ui.available_width() * 0.4)
             .show(ui, |ui| preview_panel::show(self, ui));
         egui::CentralPanel::default().show(ui, |ui| canvas_panel::show(self, ui));
-        actions::dialogs(self, ui.ctx());
+        menus::dialogs(self, ui.ctx());
         // The frame's strokes and actions are in: write them (or schedule the write) now.
         self.autosave(ui.ctx());
     }

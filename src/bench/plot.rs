@@ -1,7 +1,7 @@
 //! The Pareto plot: mean relative RMSE against time per reconstruction, one point per method,
 //! drawn with plotters into an RGB buffer and encoded as PNG.
 
-use super::report::Aggregate;
+use super::Method;
 use image::ImageEncoder;
 use plotters::prelude::*;
 use std::sync::Once;
@@ -10,6 +10,24 @@ const WIDTH: u32 = 1400;
 const HEIGHT: u32 = 900;
 /// The font family name the plot's text asks for.
 const FONT: &str = "sans-serif";
+
+/// One method over every material: a point of the plot, and a row of the report's tables and
+/// figures (`bench::report` and `bench` re-export it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Aggregate {
+    pub method: Method,
+    pub axis: &'static str,
+    pub materials: usize,
+    pub mean_relative_rmse: f64,
+    pub median_relative_rmse: f64,
+    pub mean_log_rmse: f64,
+    pub mean_median_psnr_db: f64,
+    pub mean_time_ms: f64,
+    /// Mean relative RMSE over the materials Lambert + GGX does not describe.
+    pub mean_relative_rmse_not_lambert_ggx: f64,
+    /// Mean relative RMSE over the materials Lambert + GGX describes.
+    pub mean_relative_rmse_lambert_ggx: f64,
+}
 
 fn register_font() -> Result<(), String> {
     static REGISTER: Once = Once::new();

@@ -68,8 +68,11 @@ impl PixelRect {
     }
 }
 
-/// One pixel whose painted state or colour changed. `None` means "not painted" (coverage 0,
-/// the pixel shows the base); `Some(c)` is a painted pixel's colour.
+/// One pixel whose painted state or colour changed. From the canvas, `None` means "not
+/// painted" (coverage 0, the pixel shows the base) and `Some(c)` is a painted pixel's colour.
+/// The app restates each one under its view's rule for unpainted pixels before the worker
+/// hears it ([`crate::worker::Command::Pixels`]): there `None` means the pixel says nothing
+/// (it gives no sample) and `Some` is the linear RGB radiance it shows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelChange {
     /// Row-major pixel index.

@@ -20,6 +20,7 @@ use crate::basis::Basis;
 use crate::bench::oracle::OracleProjector;
 use crate::image_io::RgbImage;
 use crate::next_view::{RankedView, candidate_scenes, rank_views};
+use crate::paint::PixelChange;
 use crate::scene::{GBuffer, Object, Scene, render_table, sample_pixel};
 use crate::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
@@ -34,15 +35,6 @@ use std::time::{Duration, Instant};
 
 /// A view's identity, shared by the canvas, the worker and the sparse table's sample keys.
 pub type ViewId = u32;
-
-/// One pixel of a view whose statement changed. `None` means the pixel says nothing (it gives
-/// no sample); `Some` is the linear RGB radiance it shows.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PixelEdit {
-    pub pixel: u32,
-    pub before: Option<[f32; 3]>,
-    pub after: Option<[f32; 3]>,
-}
 
 /// What the UI asks of the worker.
 #[derive(Clone, Debug)]
@@ -60,11 +52,11 @@ pub enum Command {
         view: ViewId,
         muted: bool,
     },
-    /// Pixels of a view changed. `input_time` is when the pointer event that caused them
-    /// happened, for latency measurement.
+    /// Pixels of a view changed, each as what it states (see [`PixelChange`]). `input_time`
+    /// is when the pointer event that caused them happened, for latency measurement.
     Pixels {
         view: ViewId,
-        edits: Vec<PixelEdit>,
+        edits: Vec<PixelChange>,
         input_time: Instant,
     },
     /// Replace every pixel a view states at once (import, session open, a new base under the
@@ -516,7 +508,7 @@ impl WorkerState {
         self.skipped = painted.saturating_sub(self.sparse.sample_count());
     }
 
-    fn apply_edits(&mut self, view: ViewId, edits: &[PixelEdit], changes: &mut Vec<BinChange>) {
+    fn apply_edits(&mut self, view: ViewId, edits: &[PixelChange], changes: &mut Vec<BinChange>) {
         let Some(state) = self.views.get_mut(&view) else {
             return;
         };

@@ -1783,8 +1783,12 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
         harness
             .state_mut()
             .perform(Action::SaveSession(session.clone()));
-        // A stroke after the save, autosaved: the recovery file holds the start too.
+        // A stroke after the save, autosaved: the recovery file holds the start too. The
+        // start's own autosave began moments ago, so the stroke's is due only after the least
+        // gap between two writes; flushing sooner would find nothing under way to wait for.
         stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
+        harness.step();
+        std::thread::sleep(burnish::session::AUTOSAVE_MIN_GAP);
         harness.step();
         harness.state_mut().flush_autosave().unwrap();
         assert!(

@@ -11,7 +11,10 @@
 //! [`Scaled`](crate::materials::models::Scaled).
 
 mod albedo;
+mod composite;
+mod empirical;
 mod families;
+mod microfacet;
 
 use super::Brdf;
 use families::Gen;

@@ -325,7 +325,8 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
         }
         solver.solve().coefficients
     };
-    let black = LDR_BLACK_BOUND as f64;
+    // ρ = L / (π cos θ_l): a black pixel's bound on the BRDF, for a surface lit head-on.
+    let black = LDR_BLACK_BOUND as f64 / std::f64::consts::PI;
     let as_bound = solve(black, Bound::AtMost);
     let as_value = solve(black / 2.0, Bound::Exact);
     for (a, b) in as_bound.iter().zip(&as_value) {

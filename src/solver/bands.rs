@@ -6,14 +6,10 @@
 //! in θ_d (a trend between two painted slices extrapolates to a retro-reflective peak near
 //! θ_d = 0, or a Fresnel peak near 90°) more tightly than materials outside it do. The
 //! reconstruction therefore takes its coefficients from [`BANDS`] sets X_j, one at each knot
-//! θ_j, blended with hat functions: x(θ_d) = (1 − f)·X_a + f·X_(a+1). The default knots
-//! ([`DEFAULT_KNOTS`]) are uniform in 1 − cos θ_d (0°, 41°, 60°, 76°, 90°): sparse at small θ_d,
-//! where Fresnel and shadowing barely change a BRDF's shape, dense toward grazing, where they
-//! change fast. A single light at 45° paints θ_d ≈ 26°, which then sets θ_d = 0 (normal
-//! incidence back-scatter, the entries renders weigh most) by interpolation. The prior
+//! θ_j, blended with hat functions: x(θ_d) = (1 − f)·X_a + f·X_(a+1), where the knots sit as
+//! [`KnotSpacing`] says ([`DEFAULT_KNOTS`], uniform in θ_d, for the default prior). The prior
 //! correlates the sets (see `ridge`), so a painted slice still informs the whole table, but
-//! less so the further away it lies in θ_d. `burnish calibrate` chose the spacing: geometric-mean
-//! relative RMSE 0.260 against 0.270 for uniform knots at the same ρ.
+//! less so the further away it lies in θ_d.
 
 use crate::table::{PAIRS, bin_centre, for_each_pair};
 use std::sync::OnceLock;
@@ -126,7 +122,7 @@ pub fn theta_d(l_dot_v: f64) -> f64 {
 
 /// The knot spacing of the default prior ([`super::PriorModel::CALIBRATED`]), which the
 /// preview's GPU evaluation and [`super::Reconstruction::new`] use.
-pub const DEFAULT_KNOTS: KnotSpacing = KnotSpacing::Cosine;
+pub const DEFAULT_KNOTS: KnotSpacing = KnotSpacing::Uniform;
 
 /// The band weights of every pair at [`BANDS`] knots of the default spacing, computed once.
 pub fn pair_bands() -> &'static [BandWeights] {

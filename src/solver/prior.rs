@@ -167,7 +167,7 @@ impl Default for PriorModel {
 /// Constants of the default model (see the module documentation for how they were chosen).
 pub const DEFAULT_ALPHA: f64 = CALIBRATED_ALPHA;
 const CALIBRATED_ALPHA: f64 = 10.0;
-const CALIBRATED_BAND_CORRELATION: f64 = 0.97;
+const CALIBRATED_BAND_CORRELATION: f64 = 0.9;
 const CALIBRATED_BAND_LENGTH: f64 = 0.0;
 const CALIBRATED_BRIGHTNESS_EXPONENT: f64 = 1.0;
 const CALIBRATED_BRIGHTNESS_FLOOR: f64 = 0.3;

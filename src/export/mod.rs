@@ -9,6 +9,7 @@
 
 pub mod exact;
 pub mod gltf;
+pub mod grid;
 pub mod materialx;
 pub mod ndf;
 pub mod rgl;

@@ -13,7 +13,7 @@
 //! solid angle dω = 2π² u_θ sin θ du_θ du_φ. An isotropic D has one value per θ; its
 //! azimuthal integral is done in closed form.
 
-use super::rgl::{u2phi, u2theta};
+use super::grid::{u2phi, u2theta};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::{PI, TAU};

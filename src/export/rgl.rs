@@ -25,6 +25,7 @@
 //! first).
 
 use super::exact::{ExactTable, anisotropy, isotropic_average};
+pub use super::grid::{phi2u, theta2u, u2phi, u2theta};
 use super::ndf::{Microsurface, estimate_anisotropic, estimate_isotropic};
 use super::spectrum::{RgbSpectrum, rgb_of_samples};
 use super::tensor::{DType, Field, TensorFile};
@@ -34,7 +35,7 @@ use crate::materials::Brdf;
 use crate::table::{PHI_BINS, SymTable, THETA_BINS, phi_centre, theta_centre};
 use glam::DVec3;
 use rayon::prelude::*;
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
 /// Below this render-weighted departure from its rotation average a table is exported as
@@ -51,19 +52,6 @@ const NDF_PHI: usize = 48;
 const WAVELENGTHS: usize = 25;
 const LAMBDA_FIRST: f64 = 350.0;
 const LAMBDA_STEP: f64 = 20.0;
-
-pub fn u2theta(u: f64) -> f64 {
-    u * u * FRAC_PI_2
-}
-pub fn u2phi(u: f64) -> f64 {
-    (2.0 * u - 1.0) * PI
-}
-pub fn theta2u(theta: f64) -> f64 {
-    (theta / FRAC_PI_2).max(0.0).sqrt()
-}
-pub fn phi2u(phi: f64) -> f64 {
-    (phi + PI) / TAU
-}
 
 /// θ of a unit vector, accurate near the normal (the loaders' `elevation`).
 pub fn elevation(d: DVec3) -> f64 {

@@ -92,15 +92,26 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
     report("one view", &one);
     report("three views", &three);
     // Stated bounds for the 48-material test basis (K = 20), averaged over six held-out
-    // materials; measured: relative RMSE 0.66, log RMSE 0.20, median PSNR 42 dB.
-    assert!(mean(&one, |e| e.log_rmse) < 0.3, "one view: log RMSE");
+    // materials, about 5% (1 dB) from what is measured, so that a regression of that size
+    // fails: one view relative RMSE 0.645, log RMSE 0.214, median PSNR 39.3 dB; three views
+    // 0.484, 0.188, 43.1 dB.
+    assert!(mean(&one, |e| e.log_rmse) < 0.225, "one view: log RMSE");
     assert!(
-        mean(&one, |e| e.relative_rmse) < 0.8,
+        mean(&one, |e| e.relative_rmse) < 0.68,
         "one view: relative RMSE"
     );
     assert!(
-        mean(&one, |e| e.median_psnr_db) > 35.0,
+        mean(&one, |e| e.median_psnr_db) > 38.3,
         "one view: median PSNR"
+    );
+    assert!(
+        mean(&three, |e| e.relative_rmse) < 0.51,
+        "three views: relative RMSE"
+    );
+    assert!(mean(&three, |e| e.log_rmse) < 0.2, "three views: log RMSE");
+    assert!(
+        mean(&three, |e| e.median_psnr_db) > 42.1,
+        "three views: median PSNR"
     );
     assert!(
         mean(&three, |e| e.relative_rmse) < mean(&one, |e| e.relative_rmse),

@@ -43,7 +43,7 @@ use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
 pub use super::prior::{DEFAULT_ALPHA, PriorModel, Regularization};
 use super::sparse::{BinChange, Bound, Bounds, EXACT};
-use crate::basis::Basis;
+use crate::basis::{Basis, map_value};
 use crate::table::{cos_theta_centre, pair_directions};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
@@ -339,7 +339,8 @@ impl Solver {
         let c = crate::basis::cos_weight(pair as usize);
         let (mut rho, mut bounds) = (rho, bounds);
         for ch in 0..3 {
-            let width = (1.0 + rho[ch].max(0.0) * c / crate::basis::MAP_EPSILON).ln();
+            // The mapped length of [0, b]; the map's reference cancels out.
+            let width = map_value(rho[ch], c, 0.0) - map_value(0.0, c, 0.0);
             if bounds[ch] == Bound::AtMost && width <= NARROW_BOUND_WIDTH {
                 rho[ch] *= 0.5;
                 bounds[ch] = Bound::Exact;

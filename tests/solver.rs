@@ -344,3 +344,67 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
         "a wide upper bound was taken for a value"
     );
 }
+
+/// The band correlation is chosen by the painted bins' evidence only where they can tell:
+/// bins spread over θ_d that one coefficient set explains get the tighter ρ; the same bins
+/// near one knot (one view's slice), or bins whose sets disagree, keep the calibrated one.
+#[test]
+fn the_band_correlation_tightens_only_for_agreeing_bins_spread_over_theta_d() {
+    use burnish::solver::{BANDS, EVIDENCE_BAND_CORRELATIONS, PriorModel, pair_bands};
+    let basis = small_basis(8);
+    let k = basis.components();
+    let mut rng = Sequence(0x5eed);
+    let mut draw = |scale: f64| -> Vec<[f64; 3]> {
+        (0..k)
+            .map(|i| {
+                let s = scale * basis.variances()[i].sqrt();
+                std::array::from_fn(|_| s * (2.0 * rng.unit() - 1.0) * 1.7)
+            })
+            .collect()
+    };
+    // One set for every θ_d, and five sets drawn apart.
+    let agreeing = Reconstruction::new(basis.clone(), &draw(1.0));
+    let disagreeing: Vec<[f64; 3]> = (0..BANDS).flat_map(|_| draw(1.0)).collect();
+    let disagreeing = Reconstruction::new(basis.clone(), &disagreeing);
+    let bands = pair_bands();
+    let spread: Vec<u32> = (0..burnish::table::PAIRS as u32).step_by(61).collect();
+    let one_knot: Vec<u32> = spread
+        .iter()
+        .copied()
+        .filter(|&p| bands[p as usize].lower == 1 && bands[p as usize].frac < 0.02)
+        .collect();
+    assert!(
+        one_knot.len() > 150,
+        "{} bins near one knot",
+        one_knot.len()
+    );
+    let chosen = |truth: &Reconstruction, pairs: &[u32], model: PriorModel| -> f64 {
+        let mut solver = Solver::with_model(basis.clone(), Regularization::Auto, model);
+        for &pair in pairs {
+            let rho = truth.eval_pair(pair as usize).map(|v| v as f64);
+            solver.apply(&BinChange {
+                pair,
+                before: None,
+                after: Some(rho),
+                bounds: burnish::solver::EXACT,
+            });
+        }
+        solver.solve().band_correlation
+    };
+    let calibrated = PriorModel::CALIBRATED;
+    let tight = EVIDENCE_BAND_CORRELATIONS[EVIDENCE_BAND_CORRELATIONS.len() - 1];
+    assert_eq!(chosen(&agreeing, &spread, calibrated), tight);
+    assert_eq!(
+        chosen(&agreeing, &one_knot, calibrated),
+        calibrated.band_correlation
+    );
+    assert_eq!(
+        chosen(&disagreeing, &spread, calibrated),
+        calibrated.band_correlation
+    );
+    let fixed = PriorModel {
+        correlation_by_evidence: false,
+        ..calibrated
+    };
+    assert_eq!(chosen(&agreeing, &spread, fixed), fixed.band_correlation);
+}

@@ -47,12 +47,13 @@ impl Candidate {
             format!("global α={}", self.alpha)
         } else {
             format!(
-                "bands={} {} ℓ={} α={} ρ={} β={} κ={}",
+                "bands={} {} ℓ={} α={} ρ={}{} β={} κ={}",
                 m.bands,
                 m.knots.name(),
                 m.band_length,
                 self.alpha,
                 m.band_correlation,
+                if m.correlation_by_evidence { "+ev" } else { "" },
                 m.brightness_exponent,
                 m.brightness_floor
             )
@@ -134,6 +135,8 @@ pub struct Grid {
     pub knots: Vec<KnotSpacing>,
     /// ℓ values ([`PriorModel::band_length`]).
     pub band_lengths: Vec<f64>,
+    /// [`PriorModel::correlation_by_evidence`] settings.
+    pub correlation_by_evidence: Vec<bool>,
 }
 
 impl Grid {
@@ -146,6 +149,7 @@ impl Grid {
             brightness: vec![(0.0, 1.0), (0.5, 0.3), (1.0, 0.3)],
             knots: vec![KnotSpacing::Uniform],
             band_lengths: vec![0.0],
+            correlation_by_evidence: vec![true],
         }
     }
 
@@ -166,17 +170,20 @@ impl Grid {
             for &alpha in &self.alphas {
                 for &band_correlation in &self.band_correlations {
                     for &(brightness_exponent, brightness_floor) in &self.brightness {
-                        candidates.push(Candidate {
-                            alpha,
-                            model: PriorModel {
-                                band_correlation,
-                                brightness_exponent,
-                                brightness_floor,
-                                knots,
-                                band_length,
-                                ..PriorModel::CALIBRATED
-                            },
-                        });
+                        for &correlation_by_evidence in &self.correlation_by_evidence {
+                            candidates.push(Candidate {
+                                alpha,
+                                model: PriorModel {
+                                    band_correlation,
+                                    brightness_exponent,
+                                    brightness_floor,
+                                    knots,
+                                    band_length,
+                                    correlation_by_evidence,
+                                    ..PriorModel::CALIBRATED
+                                },
+                            });
+                        }
                     }
                 }
             }

@@ -43,6 +43,17 @@ pub struct CalibrateArgs {
     /// Reaches ℓ ≥ 0 of the nearby sets' extra correlation to score (default: 0).
     #[arg(long, value_delimiter = ',')]
     pub band_lengths: Option<Vec<f64>>,
+    /// Whether solves may choose a stronger ρ by evidence, to score: on, off or on,off (default: on).
+    #[arg(long, value_delimiter = ',', value_parser = parse_switch)]
+    pub evidence: Option<Vec<bool>>,
+}
+
+fn parse_switch(s: &str) -> Result<bool, String> {
+    match s {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("'{s}' is neither on nor off")),
+    }
 }
 
 /// The candidate grid: the standard one, with each list the command line gives replaced.
@@ -104,6 +115,9 @@ fn grid(args: &CalibrateArgs) -> anyhow::Result<Grid> {
             "--band-lengths takes numbers ≥ 0"
         );
         grid.band_lengths = lengths.clone();
+    }
+    if let Some(evidence) = &args.evidence {
+        grid.correlation_by_evidence = evidence.clone();
     }
     anyhow::ensure!(
         !grid.candidates().is_empty(),
@@ -167,6 +181,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
                     "brightness_floor": s.candidate.model.brightness_floor,
                     "knots": s.candidate.model.knots.name(),
                     "band_length": s.candidate.model.band_length,
+                    "correlation_by_evidence": s.candidate.model.correlation_by_evidence,
                     "geometric_mean_rel_rmse": s.geometric_mean_relative_rmse,
                     "rel_rmse_1view": s.mean_relative_rmse_1view,
                     "median_rel_rmse_1view": s.median_relative_rmse_1view,
@@ -199,6 +214,7 @@ mod tests {
             brightness: None,
             knots: None,
             band_lengths: None,
+            evidence: None,
         }
     }
 
@@ -211,11 +227,19 @@ mod tests {
             band_correlations: Some(vec![0.97, 0.99]),
             brightness: Some(vec!["1:0.3".into()]),
             knots: Some(vec![KnotSpacing::Uniform, KnotSpacing::Cosine]),
+            evidence: Some(vec![true, false]),
             ..args()
         })
         .unwrap();
         let candidates = g.candidates();
-        assert_eq!(candidates.len(), 4);
+        assert_eq!(candidates.len(), 8);
+        assert_eq!(
+            candidates
+                .iter()
+                .filter(|c| c.model.correlation_by_evidence)
+                .count(),
+            4
+        );
         assert!(candidates.iter().all(|c| c.alpha == 10.0
             && c.model.brightness_exponent == 1.0
             && c.model.brightness_floor == 0.3));

@@ -90,7 +90,16 @@ pub struct PriorModel {
     /// ℓ: how far (in knot coordinates, 0 to 1 over the knots) the extra correlation of nearby
     /// sets reaches; 0 for none (every pair of sets correlated by ρ alike).
     pub band_length: f64,
+    /// Whether a solve may take a stronger band correlation than ρ
+    /// ([`EVIDENCE_BAND_CORRELATIONS`]) when the painted bins, spread over θ_d, make it
+    /// clearly more likely (see `ridge`).
+    pub correlation_by_evidence: bool,
 }
+
+/// The band correlations above ρ that the evidence may choose: views that agree with each
+/// other under a tighter coupling of θ_d get it. (0.97 beside 0.99 changed no figure of the
+/// calibration or of tests/pipeline.rs, and each candidate costs a factorisation per solve.)
+pub const EVIDENCE_BAND_CORRELATIONS: [f64; 1] = [0.99];
 
 impl PriorModel {
     /// The default: localised and brightness-weighted (constants: see the module documentation).
@@ -101,6 +110,7 @@ impl PriorModel {
         brightness_floor: CALIBRATED_BRIGHTNESS_FLOOR,
         knots: DEFAULT_KNOTS,
         band_length: CALIBRATED_BAND_LENGTH,
+        correlation_by_evidence: true,
     };
 
     /// Nielsen et al.'s prior: one coefficient set, every bin alike.
@@ -111,6 +121,7 @@ impl PriorModel {
         brightness_floor: 1.0,
         knots: DEFAULT_KNOTS,
         band_length: 0.0,
+        correlation_by_evidence: false,
     };
 
     /// Coefficient rows of a solution: `bands` × K.

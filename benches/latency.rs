@@ -114,7 +114,7 @@ fn main() {
         let frame_start = Instant::now();
         harness.event(Event::PointerMoved(at(i as f32 / frames as f32)));
         harness.step();
-        max_queue = max_queue.max(harness.state().worker.queued());
+        max_queue = max_queue.max(harness.state().document().worker().queued());
         frame_ms.push(frame_start.elapsed().as_secs_f64() * 1e3);
     }
     harness.event(Event::PointerButton {
@@ -124,7 +124,11 @@ fn main() {
         modifiers: Modifiers::NONE,
     });
     harness.step();
-    harness.state().worker.sync(Duration::from_secs(30));
+    harness
+        .state()
+        .document()
+        .worker()
+        .sync(Duration::from_secs(30));
     harness.run_steps(3);
     // The same pointer motion without the button: no new snapshot, so the preview draws
     // nothing new; what is left is the UI and the window's render.
@@ -163,7 +167,9 @@ fn main() {
     );
     println!(
         "samples {}, observed bins {}, last worker batch {:.2} ms",
-        app.snapshot.stats.samples, app.snapshot.stats.observed_bins, app.snapshot.stats.update_ms
+        app.document().snapshot().stats.samples,
+        app.document().snapshot().stats.observed_bins,
+        app.document().snapshot().stats.update_ms
     );
     println!("load average before {load_before}, after {}", load());
 }

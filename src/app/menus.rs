@@ -35,7 +35,7 @@ pub(super) fn shortcuts(app: &mut BurnishApp, ctx: &egui::Context) {
         app.perform(Action::Undo);
     }
     if save {
-        match app.session_path.clone() {
+        match app.doc.session_path().map(PathBuf::from) {
             Some(path) => app.perform(Action::SaveSession(path)),
             None => pick_save(app, "Save session", "burnish", Action::SaveSession),
         }
@@ -108,7 +108,7 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 )
                 .clicked()
             {
-                match app.session_path.clone() {
+                match app.doc.session_path().map(PathBuf::from) {
                     Some(path) => app.queue(Action::SaveSession(path)),
                     None => pick_save(app, "Save session", "burnish", Action::SaveSession),
                 }
@@ -165,7 +165,7 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
                     Action::StartFrom,
                 );
             }
-            if let Some(name) = app.start_material_name().map(str::to_owned)
+            if let Some(name) = app.doc.start_material_name().map(str::to_owned)
                 && ui
                     .button(format!("Clear starting material ({name})"))
                     .clicked()
@@ -182,7 +182,7 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
             }
         });
         ui.menu_button("Edit", |ui| {
-            let doc = app.active_view();
+            let doc = app.doc.active_view();
             let (can_undo, can_redo) = doc.map_or((false, false), |d| {
                 (d.canvas.can_undo(), d.canvas.can_redo())
             });
@@ -235,7 +235,7 @@ pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
 
 /// Notices and the recovery question.
 pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
-    if let Some(info) = app.recovery_offer.clone() {
+    if let Some(info) = app.doc.recovery_offer().cloned() {
         egui::Window::new("Recover unsaved work?")
             .collapsible(false)
             .resizable(false)
@@ -267,7 +267,7 @@ pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
             .show(ctx, |ui| {
                 ui.horizontal(|ui| {
                     if ui.button("Save").clicked() {
-                        match app.session_path.clone() {
+                        match app.doc.session_path().map(PathBuf::from) {
                             Some(path) => app.perform(Action::SaveSession(path)),
                             None => {
                                 if let Some(path) = rfd::FileDialog::new()
@@ -279,15 +279,15 @@ pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
                             }
                         }
                         app.confirm_close = false;
-                        if !app.dirty {
-                            app.discard_recovery();
+                        if !app.doc.is_dirty() {
+                            app.doc.discard_recovery();
                             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                         }
                     }
                     if ui.button("Don't save").clicked() {
-                        app.dirty = false;
+                        app.doc.discard_unsaved();
                         app.confirm_close = false;
-                        app.discard_recovery();
+                        app.doc.discard_recovery();
                         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                     }
                     if ui.button("Cancel").clicked() {
@@ -296,8 +296,8 @@ pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
                 });
             });
     }
-    if app.file_jobs_pending() {
-        let labels: Vec<String> = app.file_jobs.labels().map(str::to_owned).collect();
+    if app.doc.file_jobs_pending() {
+        let labels: Vec<String> = app.doc.file_job_labels().map(str::to_owned).collect();
         egui::Area::new(egui::Id::unique("burnish-file-jobs"))
             .anchor(egui::Align2::LEFT_BOTTOM, [12.0, -36.0])
             .show(ctx, |ui| {

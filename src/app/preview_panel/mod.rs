@@ -199,7 +199,7 @@ impl BurnishApp {
     /// What compare mode shows beside the reconstruction: the reference material if one is
     /// loaded, else the material the painting starts from.
     pub fn compared_material(&self) -> Option<(String, Arc<SymTable>)> {
-        match (&self.preview_state.reference, &self.start_material) {
+        match (&self.preview_state.reference, self.doc.start_material()) {
             (Some(r), _) => Some((format!("reference: {}", r.name), r.table.clone())),
             (None, Some(s)) => Some((format!("start: {}", s.name), s.table.clone())),
             (None, None) => None,
@@ -311,7 +311,7 @@ fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
 }
 
 fn current_reconstruction(app: &BurnishApp) -> Option<Reconstruction> {
-    let snapshot = &app.snapshot;
+    let snapshot = &app.doc.snapshot();
     let basis = snapshot.basis.clone()?;
     let (n, k) = (snapshot.coefficients.len(), basis.components());
     (n == k || n == crate::solver::BANDS * k)

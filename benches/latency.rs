@@ -82,8 +82,8 @@ fn main() {
         .with_render_every_step(true)
         .build_eframe(move |cc| BurnishApp::new(cc, config));
     harness.run_steps(3);
-    harness.state_mut().brush.size = 60.0;
-    harness.state_mut().brush.colour = [0.8, 0.5, 0.3];
+    harness.state_mut().brush_mut().size = 60.0;
+    harness.state_mut().brush_mut().colour = [0.8, 0.5, 0.3];
     let (rect, resolution) = harness.state().canvas_layout().expect("canvas laid out");
     eprintln!(
         "window {}x{}, canvas {resolution}², drawn at {:.0} points",
@@ -146,7 +146,7 @@ fn main() {
         s.sort_by(f64::total_cmp);
         s[((s.len() - 1) as f64 * q).round() as usize]
     };
-    let latencies = &app.latencies_ms;
+    let latencies = &app.latencies_ms();
     assert!(!latencies.is_empty(), "no stroke reached the preview");
     println!(
         "stroke-to-preview latency over {} updates: p50 {:.1} ms, p95 {:.1} ms, max {:.1} ms",

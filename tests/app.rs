@@ -139,11 +139,11 @@ fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
 
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Round;
-        app.brush.colour = [0.9, 0.2, 0.1];
-        app.brush.size = 30.0;
-        app.brush.opacity = 1.0;
-        app.brush.flow = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Round;
+        app.brush_mut().colour = [0.9, 0.2, 0.1];
+        app.brush_mut().size = 30.0;
+        app.brush_mut().opacity = 1.0;
+        app.brush_mut().flow = 1.0;
     }
     stroke(&mut harness, (0.3, 0.35), (0.7, 0.45));
     let app = harness.state();
@@ -182,7 +182,7 @@ fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
         .layers()
         .clone();
     let guide_samples = harness.state().document().snapshot().stats.samples;
-    harness.state_mut().brush.colour = [2.5, 2.0, 1.5];
+    harness.state_mut().brush_mut().colour = [2.5, 2.0, 1.5];
     stroke(&mut harness, (0.2, 0.5), (0.8, 0.5));
     let painted = harness.state().document().views()[0]
         .canvas
@@ -266,7 +266,7 @@ fn save_then_open_reproduces_the_session() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("painted.burnish");
     let mut harness = open_app(config());
-    harness.state_mut().brush.colour = [0.1, 0.4, 3.0];
+    harness.state_mut().brush_mut().colour = [0.1, 0.4, 3.0];
     stroke(&mut harness, (0.25, 0.6), (0.75, 0.3));
     harness.state_mut().perform(Action::AddView);
     settle(&mut harness);
@@ -276,7 +276,7 @@ fn save_then_open_reproduces_the_session() {
     harness
         .state_mut()
         .perform(Action::SaveSession(path.clone()));
-    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    assert!(harness.state().notices().iter().all(|n| !n.is_error));
     let saved = harness.state().to_session();
     let stats = harness.state().document().snapshot().stats;
 
@@ -322,7 +322,7 @@ fn a_bad_session_says_why_and_changes_nothing() {
         .perform(Action::OpenSession(path.clone()));
     let app = harness.state();
     let error = app
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -350,7 +350,7 @@ fn main_window_snapshots() {
     let mut harness = open_app(config());
     window_snapshot(&mut harness, "main_window_fresh");
 
-    harness.state_mut().brush.colour = [1.6, 0.5, 0.2];
+    harness.state_mut().brush_mut().colour = [1.6, 0.5, 0.2];
     stroke(&mut harness, (0.25, 0.4), (0.75, 0.4));
     window_snapshot(&mut harness, "main_window_painted");
 
@@ -362,7 +362,7 @@ fn main_window_snapshots() {
     settle(&mut harness);
     window_snapshot(&mut harness, "main_window_table");
 
-    harness.state_mut().preview_tab = PreviewTab::Object;
+    harness.state_mut().set_preview_tab(PreviewTab::Object);
     harness.state_mut().perform(Action::AddView);
     {
         let app = harness.state_mut();
@@ -372,11 +372,11 @@ fn main_window_snapshots() {
         app.document_mut()
             .set_scene(1, scene)
             .expect("the new light applies");
-        app.brush.colour = [0.2, 0.5, 1.4];
+        app.brush_mut().colour = [0.2, 0.5, 1.4];
     }
     settle(&mut harness);
     stroke(&mut harness, (0.5, 0.2), (0.5, 0.8));
-    harness.state_mut().show_overlay = true;
+    harness.state_mut().set_show_overlay(true);
     settle(&mut harness);
     window_snapshot(&mut harness, "main_window_two_views_overlay");
 }
@@ -399,12 +399,12 @@ fn click_at(harness: &mut Harness<'static, BurnishApp>, pos: Pos2) {
 #[test]
 fn the_eyedropper_picks_the_colour_the_preview_shows() {
     let mut harness = open_app(config());
-    harness.state_mut().brush.colour = [0.8, 0.3, 0.1];
+    harness.state_mut().brush_mut().colour = [0.8, 0.3, 0.1];
     stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
     harness.get_by_label("Pick").click();
     harness.run_steps(2);
     assert_eq!(
-        harness.state().brush.kind,
+        harness.state().brush().kind,
         burnish::paint::BrushKind::Eyedropper
     );
     let rect = harness
@@ -413,10 +413,10 @@ fn the_eyedropper_picks_the_colour_the_preview_shows() {
         .expect("the preview is laid out");
     let window = harness.render().expect("the window renders");
 
-    harness.state_mut().brush.colour = [9.0, 9.0, 9.0];
+    harness.state_mut().brush_mut().colour = [9.0, 9.0, 9.0];
     let centre = rect.center();
     click_at(&mut harness, centre);
-    let picked = harness.state().brush.colour;
+    let picked = harness.state().brush().colour;
     assert_ne!(picked, [9.0, 9.0, 9.0], "a click on the object picks");
     assert!(
         picked.iter().all(|c| c.is_finite() && *c >= 0.0),
@@ -433,9 +433,9 @@ fn the_eyedropper_picks_the_colour_the_preview_shows() {
     }
 
     // The background has no colour to pick.
-    harness.state_mut().brush.colour = [9.0, 9.0, 9.0];
+    harness.state_mut().brush_mut().colour = [9.0, 9.0, 9.0];
     click_at(&mut harness, rect.min + Vec2::splat(3.0));
-    assert_eq!(harness.state().brush.colour, [9.0, 9.0, 9.0]);
+    assert_eq!(harness.state().brush().colour, [9.0, 9.0, 9.0]);
 }
 
 #[test]
@@ -463,11 +463,11 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         .perform(Action::ImportPainting(painting.clone()));
     settle(&mut harness);
     assert!(
-        harness.state().notices.iter().all(|n| !n.is_error),
+        harness.state().notices().iter().all(|n| !n.is_error),
         "{:?}",
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .map(|n| &n.text)
             .collect::<Vec<_>>()
@@ -515,7 +515,7 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         .perform(Action::ImportPainting(small.clone()));
     let error = harness
         .state()
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -568,7 +568,7 @@ fn the_preview_object_is_chosen_apart_from_the_painted_view() {
         // The painted view is untouched: still the sphere, still its samples.
         assert_eq!(harness.state().document().views()[0].scene.object, "sphere");
     }
-    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    assert!(harness.state().notices().iter().all(|n| !n.is_error));
 
     harness
         .state_mut()
@@ -578,7 +578,7 @@ fn the_preview_object_is_chosen_apart_from_the_painted_view() {
     settle(&mut harness);
     let error = harness
         .state()
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -597,7 +597,7 @@ fn a_reference_material_loads_and_a_bad_one_is_refused() {
     let mut harness = open_app(config());
     let exr = reference_table(dir.path());
     harness.state_mut().perform(Action::LoadReference(exr));
-    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    assert!(harness.state().notices().iter().all(|n| !n.is_error));
     let loaded = harness
         .state()
         .preview_state()
@@ -627,7 +627,7 @@ fn a_reference_material_loads_and_a_bad_one_is_refused() {
     harness.state_mut().perform(Action::LoadReference(bad));
     let error = harness
         .state()
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -675,7 +675,7 @@ fn the_table_readout_follows_the_pointer() {
 fn inspection_view_snapshots() {
     let dir = tempfile::tempdir().unwrap();
     let mut harness = open_app(config());
-    harness.state_mut().brush.colour = [1.6, 0.5, 0.2];
+    harness.state_mut().brush_mut().colour = [1.6, 0.5, 0.2];
     stroke(&mut harness, (0.25, 0.4), (0.75, 0.4));
     harness
         .state_mut()
@@ -685,7 +685,7 @@ fn inspection_view_snapshots() {
     {
         let app = harness.state_mut();
         app.set_preview_object(PreviewObject::MaterialTest);
-        app.preview.environment = Some(EnvironmentLight::default());
+        app.preview_frame_mut().environment = Some(EnvironmentLight::default());
     }
     settle(&mut harness);
     window_snapshot(&mut harness, "preview_material_test_environment");
@@ -745,7 +745,7 @@ fn press(harness: &mut Harness<'static, BurnishApp>, pos: Pos2, pressed: bool) {
 }
 
 fn error_texts(harness: &Harness<'static, BurnishApp>) -> Vec<String> {
-    let notices = &harness.state().notices;
+    let notices = &harness.state().notices();
     notices
         .iter()
         .filter(|n| n.is_error)
@@ -772,7 +772,7 @@ fn autosave_happens_while_idle_with_no_input() {
     harness
         .ctx
         .set_repaint_observer(move |info| seen.lock().unwrap().push(info.delay));
-    harness.state_mut().brush.size = 20.0;
+    harness.state_mut().brush_mut().size = 20.0;
     let start = canvas_point(&harness, (0.3, 0.5));
     harness.event(Event::PointerMoved(start));
     harness.step();
@@ -850,7 +850,7 @@ fn a_stroke_faster_than_the_frames_loses_no_dab() {
         .collect();
     let paint = |one_frame: bool| {
         let mut harness = open_app(config());
-        harness.state_mut().brush.size = 6.0;
+        harness.state_mut().brush_mut().size = 6.0;
         let points: Vec<Pos2> = path.iter().map(|&p| canvas_point(&harness, p)).collect();
         harness.event(Event::PointerMoved(points[0]));
         harness.step();
@@ -912,7 +912,7 @@ fn a_refused_save_says_why_and_keeps_the_painting() {
     let check = |harness: &mut Harness<'static, BurnishApp>, expected: &str| {
         let before = std::fs::read(&path).unwrap();
         let session = harness.state().to_session();
-        harness.state_mut().notices.clear();
+        harness.state_mut().clear_notices();
         harness
             .state_mut()
             .perform(Action::SaveSession(path.clone()));
@@ -988,7 +988,7 @@ fn recovery_brings_back_the_painting_and_is_never_overwritten_before_the_answer(
     let recovery = dir.path().join("recovery.burnish");
     let crashed = {
         let mut harness = open_app(autosaving(&recovery));
-        harness.state_mut().brush.colour = [3.0, 0.5, 0.25];
+        harness.state_mut().brush_mut().colour = [3.0, 0.5, 0.25];
         stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
         harness.step();
         harness.state_mut().document_mut().flush_autosave().unwrap();
@@ -1029,7 +1029,7 @@ fn recovery_brings_back_the_painting_and_is_never_overwritten_before_the_answer(
     );
     assert!(!app.document().views()[0].canvas.can_undo());
     assert!(
-        app.notices
+        app.notices()
             .iter()
             .any(|n| !n.is_error && n.text.contains("Undo history is not kept")),
         "the app says that undo history did not survive"
@@ -1076,7 +1076,7 @@ fn bad_files_the_app_reads_change_nothing() {
     let errors = error_texts(&harness);
     assert!(errors.iter().any(|e| e.contains("cut.toml")), "{errors:?}");
     assert_eq!(
-        harness.state().presets.len(),
+        harness.state().presets().len(),
         1,
         "the good preset is still offered"
     );
@@ -1095,7 +1095,7 @@ fn bad_files_the_app_reads_change_nothing() {
     let bytes = std::fs::read(&exr).unwrap();
     std::fs::write(&exr, &bytes[..bytes.len() / 2]).unwrap();
 
-    harness.state_mut().notices.clear();
+    harness.state_mut().clear_notices();
     let mut scene = session.views[0].scene.clone();
     scene.object = obj.to_string_lossy().into_owned();
     let err = harness
@@ -1151,11 +1151,11 @@ fn a_read_only_basis_cache_still_gives_a_basis_with_a_warning() {
             "the worker solves with it"
         );
         assert!(
-            app.notices.iter().any(|n| n.text.contains("warning")
+            app.notices().iter().any(|n| n.text.contains("warning")
                 && n.text.contains("could not be cached")
                 && n.text.contains("Permission denied")),
             "{:?}",
-            app.notices.iter().map(|n| &n.text).collect::<Vec<_>>()
+            app.notices().iter().map(|n| &n.text).collect::<Vec<_>>()
         );
         harness.get_by_label_contains("basis ready, not cached");
     });
@@ -1179,7 +1179,7 @@ fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
             harness.step();
             if harness
                 .state()
-                .notices
+                .notices()
                 .iter()
                 .any(|n| n.text.contains(what))
             {
@@ -1237,7 +1237,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     harness.state_mut().perform(Action::StartFrom(bsdf.clone()));
     settle(&mut harness);
     let app = harness.state();
-    assert!(app.notices.iter().all(|n| !n.is_error));
+    assert!(app.notices().iter().all(|n| !n.is_error));
     assert_eq!(app.document().start_material_name(), Some("start.bsdf"));
     assert_eq!(
         app.preview_state().reference.as_ref().unwrap().name,
@@ -1286,10 +1286,10 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     }
     settle(&mut harness);
     let app = harness.state();
-    assert!(app.notices.iter().all(|n| !n.is_error));
+    assert!(app.notices().iter().all(|n| !n.is_error));
     assert!(RglBsdf::read(&dir.path().join("out.bsdf")).is_ok());
     let fits = app
-        .notices
+        .notices()
         .iter()
         .filter(|n| n.text.contains("dB PSNR"))
         .count();
@@ -1300,7 +1300,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     assert!(
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .any(|n| n.is_error && n.text.contains("out.png"))
     );
@@ -1313,7 +1313,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     assert!(
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .any(|n| n.is_error && n.text.contains("broken.bsdf"))
     );
@@ -1395,11 +1395,11 @@ fn highlight_stroke_moves(rule: UnpaintedPixels) -> (usize, usize, usize) {
     let (u, v) = highlight_point(harness.state(), 0);
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Round;
-        app.brush.colour = [3.0, 3.0, 3.0];
-        app.brush.size = 16.0;
-        app.brush.opacity = 1.0;
-        app.brush.flow = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Round;
+        app.brush_mut().colour = [3.0, 3.0, 3.0];
+        app.brush_mut().size = 16.0;
+        app.brush_mut().opacity = 1.0;
+        app.brush_mut().flow = 1.0;
     }
     stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
     let after = preview_pixels(&mut harness);
@@ -1455,7 +1455,7 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         harness.step();
     }
     settle(&mut harness);
-    harness.state_mut().brush.colour = [1.6, 1.1, 0.7];
+    harness.state_mut().brush_mut().colour = [1.6, 1.1, 0.7];
     stroke(&mut harness, (0.3, 0.4), (0.7, 0.5));
     let scene = dir.path().join("scene.toml");
     std::fs::write(
@@ -1529,9 +1529,9 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
     let mut harness = open_app(config());
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Fill;
-        app.brush.colour = [0.30, 0.16, 0.09];
-        app.brush.opacity = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Fill;
+        app.brush_mut().colour = [0.30, 0.16, 0.09];
+        app.brush_mut().opacity = 1.0;
     }
     let centre = canvas_point(&harness, (0.5, 0.5));
     click_at(&mut harness, centre);
@@ -1539,10 +1539,10 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
     let (u, v) = highlight_point(harness.state(), 0);
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Round;
-        app.brush.colour = [2.5, 2.4, 2.2];
-        app.brush.size = 16.0;
-        app.brush.flow = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Round;
+        app.brush_mut().colour = [2.5, 2.4, 2.2];
+        app.brush_mut().size = 16.0;
+        app.brush_mut().flow = 1.0;
     }
     stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
     let table = |app: &BurnishApp| {
@@ -1612,7 +1612,7 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
     let at = |(u, v): (f32, f32)| (v * n as f32) as usize * n + (u * n as f32) as usize;
     let predicted = shown.pixels[at((u2, v2))];
     let correction = predicted.map(|c| c * 0.3);
-    harness.state_mut().brush.colour = correction;
+    harness.state_mut().brush_mut().colour = correction;
     stroke(&mut harness, (u2 - 0.04, v2), (u2 + 0.04, v2));
     let app = harness.state();
     let after = table(app);
@@ -1693,13 +1693,13 @@ fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated
     assert!(candidates.contains(suggested), "{suggested:?}");
     assert_ne!(suggested, base);
     assert!(
-        app.notices
+        app.notices()
             .iter()
             .any(|n| n.text.starts_with("suggested view:")),
         "the suggestion is reported"
     );
 
-    harness.state_mut().preview_tab = PreviewTab::Table;
+    harness.state_mut().set_preview_tab(PreviewTab::Table);
     harness
         .state_mut()
         .preview_state_mut()
@@ -1762,9 +1762,9 @@ fn compare_mode_shows_the_material_beside_the_reconstruction_and_their_differenc
     settle(&mut harness);
     assert!(harness.state().preview_state().compare);
     assert!(
-        harness.state().notices.iter().all(|n| !n.is_error),
+        harness.state().notices().iter().all(|n| !n.is_error),
         "{:?}",
-        harness.state().notices
+        harness.state().notices()
     );
     let rects = harness
         .state()
@@ -1869,9 +1869,9 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
         harness.step();
         harness.state_mut().document_mut().flush_autosave().unwrap();
         assert!(
-            harness.state().notices.iter().all(|n| !n.is_error),
+            harness.state().notices().iter().all(|n| !n.is_error),
             "{:?}",
-            harness.state().notices
+            harness.state().notices()
         );
         (
             prior,
@@ -1975,11 +1975,11 @@ fn an_export_runs_off_the_ui_thread_and_the_window_keeps_drawing() {
     assert!(burnish::export::RglBsdf::read(&out).is_ok());
     let app = harness.state();
     assert!(
-        app.notices
+        app.notices()
             .iter()
             .any(|n| !n.is_error && n.text.contains("material.bsdf")),
         "{:?}",
-        app.notices
+        app.notices()
     );
     assert!(harness.query_by_label_contains("exporting").is_none());
 
@@ -1991,11 +1991,11 @@ fn an_export_runs_off_the_ui_thread_and_the_window_keeps_drawing() {
     assert!(
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .any(|n| n.is_error && n.text.contains("material.gltf")),
         "{:?}",
-        harness.state().notices
+        harness.state().notices()
     );
     assert!(!unwritable.exists());
 }

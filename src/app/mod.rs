@@ -90,26 +90,26 @@ pub enum PreviewTab {
 /// The Burnish window: a UI over a [`Document`], with the state of its own panels.
 pub struct BurnishApp {
     doc: Document,
-    pub brush: BrushSettings,
-    pub presets: Vec<BrushPreset>,
+    brush: BrushSettings,
+    presets: Vec<BrushPreset>,
     /// The preview's camera, lights and mode.
-    pub preview: crate::preview::PreviewFrame,
-    pub preview_tab: PreviewTab,
-    pub lobe_theta_deg: f32,
-    pub lobe_phi_deg: f32,
+    preview: crate::preview::PreviewFrame,
+    preview_tab: PreviewTab,
+    lobe_theta_deg: f32,
+    lobe_phi_deg: f32,
     /// A scene edit waiting for the pointer to be released.
     pending_scene: Option<Scene>,
     /// The brush tip of the chosen preset, if it has one.
-    pub active_tip: Option<Arc<crate::paint::TipMask>>,
-    pub canvas_view: canvas_panel::CanvasView,
-    pub show_overlay: bool,
+    active_tip: Option<Arc<crate::paint::TipMask>>,
+    canvas_view: canvas_panel::CanvasView,
+    show_overlay: bool,
     /// How strongly the view's guide shows over its canvas (the reference layer; 0: hidden).
-    pub guide_opacity: f32,
+    guide_opacity: f32,
     /// The window asked to close while there were unsaved changes.
-    pub confirm_close: bool,
-    pub notices: Vec<Notice>,
+    confirm_close: bool,
+    notices: Vec<Notice>,
     /// Stroke-to-preview latencies in ms, oldest first (bounded).
-    pub latencies_ms: Vec<f64>,
+    latencies_ms: Vec<f64>,
     preview_state: preview_panel::PreviewState,
     pending_actions: Vec<Action>,
 }
@@ -197,6 +197,62 @@ impl BurnishApp {
 
     pub fn document_mut(&mut self) -> &mut Document {
         &mut self.doc
+    }
+
+    /// The brush the artist holds (tool, size, colour…).
+    pub fn brush(&self) -> &BrushSettings {
+        &self.brush
+    }
+
+    pub fn brush_mut(&mut self) -> &mut BrushSettings {
+        &mut self.brush
+    }
+
+    /// The brush presets read at start.
+    pub fn presets(&self) -> &[BrushPreset] {
+        &self.presets
+    }
+
+    /// The messages shown in the corner, oldest first.
+    pub fn notices(&self) -> &[Notice] {
+        &self.notices
+    }
+
+    /// Dismisses every message.
+    pub fn clear_notices(&mut self) {
+        self.notices.clear();
+    }
+
+    /// The preview's camera, lights and mode.
+    pub fn preview_frame(&self) -> &crate::preview::PreviewFrame {
+        &self.preview
+    }
+
+    pub fn preview_frame_mut(&mut self) -> &mut crate::preview::PreviewFrame {
+        &mut self.preview
+    }
+
+    /// Which picture the right-hand panel shows.
+    pub fn preview_tab(&self) -> PreviewTab {
+        self.preview_tab
+    }
+
+    pub fn set_preview_tab(&mut self, tab: PreviewTab) {
+        self.preview_tab = tab;
+    }
+
+    /// Whether the canvas shows the disagreement and coverage overlay.
+    pub fn show_overlay(&self) -> bool {
+        self.show_overlay
+    }
+
+    pub fn set_show_overlay(&mut self, show: bool) {
+        self.show_overlay = show;
+    }
+
+    /// Stroke-to-preview latencies in ms, oldest first (the last few thousand).
+    pub fn latencies_ms(&self) -> &[f64] {
+        &self.latencies_ms
     }
 
     /// Shows what the document reported: its messages, and a starting material as the

@@ -5,12 +5,12 @@
 
 mod common;
 
-use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab};
+use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab, UiCommand};
 use burnish::inspect::LobeScale;
 use burnish::paint::UnpaintedPixels;
 use burnish::preview::{EnvironmentLight, PreviewObject};
 use burnish::scene::Scene;
-use egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
+use egui::{Event, Key, KeyboardShortcut, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::path::PathBuf;
@@ -192,8 +192,18 @@ fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
     assert!(harness.state().document().snapshot().stats.samples > 0);
 
     assert!(harness.state().document().views()[0].canvas.can_undo());
+    assert!(UiCommand::Undo.is_enabled(harness.state()));
+    assert!(
+        !UiCommand::Redo.is_enabled(harness.state()),
+        "nothing to redo yet"
+    );
+    assert_eq!(
+        UiCommand::Undo.shortcut(),
+        Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::Z))
+    );
     harness.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     settle(&mut harness);
+    assert!(UiCommand::Redo.is_enabled(harness.state()));
     let undone = harness.state().document().views()[0].canvas.layers();
     let differing = (0..undone.coverage.len())
         .filter(|&i| {

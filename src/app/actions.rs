@@ -1,5 +1,6 @@
-//! What the menus and shortcuts do: sessions, import and export, undo, views.
-//! File dialogs only supply paths; every action takes its path, so tests drive them directly.
+//! What the menus and shortcuts do: sessions, import and export, undo, views. The
+//! document carries most of it out. File dialogs only supply paths; every action takes its
+//! path, so tests drive them directly.
 
 use super::BurnishApp;
 use crate::document::ExportKind;
@@ -30,6 +31,8 @@ pub enum Action {
     /// Rank candidate views by what painting them would teach (off the UI thread) and add
     /// the best when the ranking arrives.
     SuggestView,
+    /// Fill the active view's object with the brush colour (one undo step).
+    FillObject,
     /// Put a render of the current BRDF under the active view's paint.
     StartFromCurrentBrdf,
     Undo,
@@ -77,6 +80,12 @@ impl BurnishApp {
                 }
                 Ok(())
             }
+            Action::FillObject => {
+                if let Some(dirty) = doc.fill_active(&self.brush) {
+                    self.canvas_view.mark_dirty(dirty);
+                }
+                Ok(())
+            }
             Action::Recover => doc.recover().map(|brush| {
                 if let Some(brush) = brush {
                     self.brush = brush;
@@ -97,13 +106,6 @@ impl BurnishApp {
         self.take_document_events();
         if let Err(e) = result {
             self.notify_error(e.to_string());
-        }
-    }
-
-    /// Fills the active view's object with the brush colour (one undo step).
-    pub fn fill_active(&mut self) {
-        if let Some(dirty) = self.doc.fill_active(&self.brush) {
-            self.canvas_view.mark_dirty(dirty);
         }
     }
 }

@@ -7,6 +7,7 @@
 
 mod actions;
 mod canvas_panel;
+mod commands;
 mod menus;
 mod preview_panel;
 mod side_panel;
@@ -18,6 +19,7 @@ pub use crate::document::{
     painting_mask_path,
 };
 pub use actions::Action;
+pub use commands::{UiCommand, When};
 pub use preview_panel::{PreviewState, Reference, TableOverlays, TableSource};
 
 use crate::basis::Basis;

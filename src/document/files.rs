@@ -288,7 +288,7 @@ impl Document {
     }
 
     /// Reads a starting material and renders it under every view's paint on a thread of its
-    /// own; [`Self::take_file_jobs`] puts it in place when it is done.
+    /// own; [`Self::poll`] puts it in place when it is done.
     pub fn start_from(&mut self, path: &Path) -> crate::Result<()> {
         let request = self.file_jobs.new_start_request();
         let views: Vec<(ViewId, Arc<GBuffer>)> = self

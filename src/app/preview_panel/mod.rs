@@ -299,12 +299,7 @@ fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .on_hover_text("A BRDF to compare with: an EXR table, a MERL binary or a .bsdf")
                 .clicked()
             {
-                super::menus::pick_open(
-                    app,
-                    "Load reference material",
-                    &["exr", "binary", "bsdf"],
-                    super::Action::LoadReference,
-                );
+                app.run_command(super::UiCommand::LoadReference, super::When::NextFrame);
             }
         }
     }

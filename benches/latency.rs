@@ -82,8 +82,8 @@ fn main() {
         .with_render_every_step(true)
         .build_eframe(move |cc| BurnishApp::new(cc, config));
     harness.run_steps(3);
-    harness.state_mut().brush.size = 60.0;
-    harness.state_mut().brush.colour = [0.8, 0.5, 0.3];
+    harness.state_mut().brush_mut().size = 60.0;
+    harness.state_mut().brush_mut().colour = [0.8, 0.5, 0.3];
     let (rect, resolution) = harness.state().canvas_layout().expect("canvas laid out");
     eprintln!(
         "window {}x{}, canvas {resolution}², drawn at {:.0} points",
@@ -114,7 +114,7 @@ fn main() {
         let frame_start = Instant::now();
         harness.event(Event::PointerMoved(at(i as f32 / frames as f32)));
         harness.step();
-        max_queue = max_queue.max(harness.state().worker.queued());
+        max_queue = max_queue.max(harness.state().document().worker().queued());
         frame_ms.push(frame_start.elapsed().as_secs_f64() * 1e3);
     }
     harness.event(Event::PointerButton {
@@ -124,7 +124,11 @@ fn main() {
         modifiers: Modifiers::NONE,
     });
     harness.step();
-    harness.state().worker.sync(Duration::from_secs(30));
+    harness
+        .state()
+        .document()
+        .worker()
+        .sync(Duration::from_secs(30));
     harness.run_steps(3);
     // The same pointer motion without the button: no new snapshot, so the preview draws
     // nothing new; what is left is the UI and the window's render.
@@ -142,7 +146,7 @@ fn main() {
         s.sort_by(f64::total_cmp);
         s[((s.len() - 1) as f64 * q).round() as usize]
     };
-    let latencies = &app.latencies_ms;
+    let latencies = &app.latencies_ms();
     assert!(!latencies.is_empty(), "no stroke reached the preview");
     println!(
         "stroke-to-preview latency over {} updates: p50 {:.1} ms, p95 {:.1} ms, max {:.1} ms",
@@ -163,7 +167,9 @@ fn main() {
     );
     println!(
         "samples {}, observed bins {}, last worker batch {:.2} ms",
-        app.snapshot.stats.samples, app.snapshot.stats.observed_bins, app.snapshot.stats.update_ms
+        app.document().snapshot().stats.samples,
+        app.document().snapshot().stats.observed_bins,
+        app.document().snapshot().stats.update_ms
     );
     println!("load average before {load_before}, after {}", load());
 }

@@ -15,6 +15,7 @@ pub mod bench;
 pub mod bounded_read;
 pub mod brdf;
 pub mod cli;
+pub mod document;
 pub mod error;
 pub mod export;
 pub mod fs_atomic;

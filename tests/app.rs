@@ -5,12 +5,12 @@
 
 mod common;
 
-use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab};
+use burnish::app::{Action, AppConfig, BurnishApp, PreviewTab, UiCommand};
 use burnish::inspect::LobeScale;
 use burnish::paint::UnpaintedPixels;
 use burnish::preview::{EnvironmentLight, PreviewObject};
 use burnish::scene::Scene;
-use egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
+use egui::{Event, Key, KeyboardShortcut, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::path::PathBuf;
@@ -45,7 +45,9 @@ fn open_app(config: AppConfig) -> Harness<'static, BurnishApp> {
 fn settle(harness: &mut Harness<'static, BurnishApp>) {
     harness.run_steps(2);
     let deadline = std::time::Instant::now() + Duration::from_secs(120);
-    while harness.state().predictions_pending() || harness.state().file_jobs_pending() {
+    while harness.state().document().predictions_pending()
+        || harness.state().document().file_jobs_pending()
+    {
         assert!(
             std::time::Instant::now() < deadline,
             "no prediction arrived, or an export or start did not finish"
@@ -55,7 +57,8 @@ fn settle(harness: &mut Harness<'static, BurnishApp>) {
     }
     harness
         .state()
-        .worker
+        .document()
+        .worker()
         .sync(Duration::from_secs(60))
         .expect("the worker answers");
     harness.run_steps(3);
@@ -127,7 +130,7 @@ fn differing(a: &[[u8; 4]], b: &[[u8; 4]]) -> usize {
 #[test]
 fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
     let mut harness = open_app(config());
-    let before = harness.state().snapshot.clone();
+    let before = harness.state().document().snapshot().clone();
     // The fresh canvas counts as shown: the guide's pixels are samples of grey diffuse.
     let guide_samples = before.stats.samples;
     assert!(guide_samples > 10_000, "{guide_samples} guide samples");
@@ -136,15 +139,15 @@ fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
 
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Round;
-        app.brush.colour = [0.9, 0.2, 0.1];
-        app.brush.size = 30.0;
-        app.brush.opacity = 1.0;
-        app.brush.flow = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Round;
+        app.brush_mut().colour = [0.9, 0.2, 0.1];
+        app.brush_mut().size = 30.0;
+        app.brush_mut().opacity = 1.0;
+        app.brush_mut().flow = 1.0;
     }
     stroke(&mut harness, (0.3, 0.35), (0.7, 0.45));
     let app = harness.state();
-    let after = app.snapshot.clone();
+    let after = app.document().snapshot().clone();
     assert!(after.version > before.version);
     assert!(
         after.stats.samples > 200,
@@ -153,7 +156,7 @@ fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
     );
     assert!(after.stats.observed_bins > 20);
     assert!(
-        !app.observed.is_empty(),
+        !app.document().observed().is_empty(),
         "the UI mirrors the sparse table's bins"
     );
     let moved: f64 = after
@@ -174,18 +177,34 @@ fn a_stroke_reaches_the_table_the_solver_and_the_preview() {
 #[test]
 fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
     let mut harness = open_app(config());
-    let original = harness.state().views[0].canvas.layers().clone();
-    let guide_samples = harness.state().snapshot.stats.samples;
-    harness.state_mut().brush.colour = [2.5, 2.0, 1.5];
+    let original = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
+    let guide_samples = harness.state().document().snapshot().stats.samples;
+    harness.state_mut().brush_mut().colour = [2.5, 2.0, 1.5];
     stroke(&mut harness, (0.2, 0.5), (0.8, 0.5));
-    let painted = harness.state().views[0].canvas.layers().clone();
+    let painted = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
     assert!(painted != original, "the stroke painted");
-    assert!(harness.state().snapshot.stats.samples > 0);
+    assert!(harness.state().document().snapshot().stats.samples > 0);
 
-    assert!(harness.state().views[0].canvas.can_undo());
+    assert!(harness.state().document().views()[0].canvas.can_undo());
+    assert!(UiCommand::Undo.is_enabled(harness.state()));
+    assert!(
+        !UiCommand::Redo.is_enabled(harness.state()),
+        "nothing to redo yet"
+    );
+    assert_eq!(
+        UiCommand::Undo.shortcut(),
+        Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::Z))
+    );
     harness.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     settle(&mut harness);
-    let undone = harness.state().views[0].canvas.layers();
+    assert!(UiCommand::Redo.is_enabled(harness.state()));
+    let undone = harness.state().document().views()[0].canvas.layers();
     let differing = (0..undone.coverage.len())
         .filter(|&i| {
             undone.coverage[i].to_bits() != original.coverage[i].to_bits()
@@ -200,7 +219,7 @@ fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
         undone.painted_count()
     );
     assert_eq!(
-        harness.state().snapshot.stats.samples,
+        harness.state().document().snapshot().stats.samples,
         guide_samples,
         "and the painted samples give way to the guide's again"
     );
@@ -208,31 +227,33 @@ fn undo_restores_the_paint_bit_for_bit_and_redo_reapplies_it() {
     harness.key_press_modifiers(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
     settle(&mut harness);
     assert!(
-        harness.state().views[0].canvas.layers() == &painted,
+        harness.state().document().views()[0].canvas.layers() == &painted,
         "redo reapplies the stroke"
     );
-    assert!(harness.state().snapshot.stats.samples > 0);
+    assert!(harness.state().document().snapshot().stats.samples > 0);
 }
 
 #[test]
 fn a_second_view_contributes_samples() {
     let mut harness = open_app(config());
     stroke(&mut harness, (0.3, 0.3), (0.6, 0.6));
-    let one_view = harness.state().snapshot.stats;
+    let one_view = harness.state().document().snapshot().stats;
 
     harness.state_mut().perform(Action::AddView);
     {
         let app = harness.state_mut();
-        assert_eq!(app.views.len(), 2);
-        assert_eq!(app.active, 1);
-        let mut scene = app.views[1].scene.clone();
+        assert_eq!(app.document().views().len(), 2);
+        assert_eq!(app.document().active(), 1);
+        let mut scene = app.document().views()[1].scene.clone();
         scene.light.azimuth_deg = -60.0;
         scene.light.elevation_deg = 25.0;
-        app.set_scene(1, scene).expect("the new light applies");
+        app.document_mut()
+            .set_scene(1, scene)
+            .expect("the new light applies");
     }
     settle(&mut harness);
     stroke(&mut harness, (0.3, 0.3), (0.6, 0.6));
-    let two_views = harness.state().snapshot.stats;
+    let two_views = harness.state().document().snapshot().stats;
     assert!(two_views.samples > one_view.samples);
     assert!(
         two_views.observed_bins > one_view.observed_bins,
@@ -242,9 +263,12 @@ fn a_second_view_contributes_samples() {
     );
 
     // Muting the second view takes exactly its samples out.
-    harness.state_mut().set_muted(1, true);
+    harness.state_mut().document_mut().set_muted(1, true);
     settle(&mut harness);
-    assert_eq!(harness.state().snapshot.stats.samples, one_view.samples);
+    assert_eq!(
+        harness.state().document().snapshot().stats.samples,
+        one_view.samples
+    );
 }
 
 #[test]
@@ -252,19 +276,19 @@ fn save_then_open_reproduces_the_session() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("painted.burnish");
     let mut harness = open_app(config());
-    harness.state_mut().brush.colour = [0.1, 0.4, 3.0];
+    harness.state_mut().brush_mut().colour = [0.1, 0.4, 3.0];
     stroke(&mut harness, (0.25, 0.6), (0.75, 0.3));
     harness.state_mut().perform(Action::AddView);
     settle(&mut harness);
     stroke(&mut harness, (0.4, 0.2), (0.4, 0.8));
-    harness.state_mut().set_muted(0, true);
+    harness.state_mut().document_mut().set_muted(0, true);
     settle(&mut harness);
     harness
         .state_mut()
         .perform(Action::SaveSession(path.clone()));
-    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    assert!(harness.state().notices().iter().all(|n| !n.is_error));
     let saved = harness.state().to_session();
-    let stats = harness.state().snapshot.stats;
+    let stats = harness.state().document().snapshot().stats;
 
     let mut reopened = open_app(AppConfig {
         session: Some(path.clone()),
@@ -272,15 +296,18 @@ fn save_then_open_reproduces_the_session() {
     });
     settle(&mut reopened);
     assert_eq!(reopened.state().to_session(), saved);
-    assert_eq!(reopened.state().snapshot.stats.samples, stats.samples);
     assert_eq!(
-        reopened.state().snapshot.stats.observed_bins,
+        reopened.state().document().snapshot().stats.samples,
+        stats.samples
+    );
+    assert_eq!(
+        reopened.state().document().snapshot().stats.observed_bins,
         stats.observed_bins
     );
     // The same samples, added in another order: equal up to rounding of the sums.
     let (a, b) = (
-        &reopened.state().snapshot.coefficients,
-        &harness.state().snapshot.coefficients,
+        &reopened.state().document().snapshot().coefficients,
+        &harness.state().document().snapshot().coefficients,
     );
     assert_eq!(a.len(), b.len());
     for (x, y) in a.iter().zip(b.iter()) {
@@ -305,7 +332,7 @@ fn a_bad_session_says_why_and_changes_nothing() {
         .perform(Action::OpenSession(path.clone()));
     let app = harness.state();
     let error = app
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -333,7 +360,7 @@ fn main_window_snapshots() {
     let mut harness = open_app(config());
     window_snapshot(&mut harness, "main_window_fresh");
 
-    harness.state_mut().brush.colour = [1.6, 0.5, 0.2];
+    harness.state_mut().brush_mut().colour = [1.6, 0.5, 0.2];
     stroke(&mut harness, (0.25, 0.4), (0.75, 0.4));
     window_snapshot(&mut harness, "main_window_painted");
 
@@ -345,19 +372,21 @@ fn main_window_snapshots() {
     settle(&mut harness);
     window_snapshot(&mut harness, "main_window_table");
 
-    harness.state_mut().preview_tab = PreviewTab::Object;
+    harness.state_mut().set_preview_tab(PreviewTab::Object);
     harness.state_mut().perform(Action::AddView);
     {
         let app = harness.state_mut();
-        let mut scene = app.views[1].scene.clone();
+        let mut scene = app.document().views()[1].scene.clone();
         scene.light.azimuth_deg = -60.0;
         scene.light.elevation_deg = 25.0;
-        app.set_scene(1, scene).expect("the new light applies");
-        app.brush.colour = [0.2, 0.5, 1.4];
+        app.document_mut()
+            .set_scene(1, scene)
+            .expect("the new light applies");
+        app.brush_mut().colour = [0.2, 0.5, 1.4];
     }
     settle(&mut harness);
     stroke(&mut harness, (0.5, 0.2), (0.5, 0.8));
-    harness.state_mut().show_overlay = true;
+    harness.state_mut().set_show_overlay(true);
     settle(&mut harness);
     window_snapshot(&mut harness, "main_window_two_views_overlay");
 }
@@ -380,12 +409,12 @@ fn click_at(harness: &mut Harness<'static, BurnishApp>, pos: Pos2) {
 #[test]
 fn the_eyedropper_picks_the_colour_the_preview_shows() {
     let mut harness = open_app(config());
-    harness.state_mut().brush.colour = [0.8, 0.3, 0.1];
+    harness.state_mut().brush_mut().colour = [0.8, 0.3, 0.1];
     stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
     harness.get_by_label("Pick").click();
     harness.run_steps(2);
     assert_eq!(
-        harness.state().brush.kind,
+        harness.state().brush().kind,
         burnish::paint::BrushKind::Eyedropper
     );
     let rect = harness
@@ -394,10 +423,10 @@ fn the_eyedropper_picks_the_colour_the_preview_shows() {
         .expect("the preview is laid out");
     let window = harness.render().expect("the window renders");
 
-    harness.state_mut().brush.colour = [9.0, 9.0, 9.0];
+    harness.state_mut().brush_mut().colour = [9.0, 9.0, 9.0];
     let centre = rect.center();
     click_at(&mut harness, centre);
-    let picked = harness.state().brush.colour;
+    let picked = harness.state().brush().colour;
     assert_ne!(picked, [9.0, 9.0, 9.0], "a click on the object picks");
     assert!(
         picked.iter().all(|c| c.is_finite() && *c >= 0.0),
@@ -414,17 +443,20 @@ fn the_eyedropper_picks_the_colour_the_preview_shows() {
     }
 
     // The background has no colour to pick.
-    harness.state_mut().brush.colour = [9.0, 9.0, 9.0];
+    harness.state_mut().brush_mut().colour = [9.0, 9.0, 9.0];
     click_at(&mut harness, rect.min + Vec2::splat(3.0));
-    assert_eq!(harness.state().brush.colour, [9.0, 9.0, 9.0]);
+    assert_eq!(harness.state().brush().colour, [9.0, 9.0, 9.0]);
 }
 
 #[test]
 fn an_imported_painting_is_one_edit_that_undo_takes_back() {
     let dir = tempfile::tempdir().unwrap();
     let mut harness = open_app(config());
-    let original = harness.state().views[0].canvas.layers().clone();
-    let guide_samples = harness.state().snapshot.stats.samples;
+    let original = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
+    let guide_samples = harness.state().document().snapshot().stats.samples;
     // The exported guide, brightened in an "external editor", comes back as a painting.
     let guide_path = dir.path().join("guide.png");
     harness
@@ -441,35 +473,41 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         .perform(Action::ImportPainting(painting.clone()));
     settle(&mut harness);
     assert!(
-        harness.state().notices.iter().all(|n| !n.is_error),
+        harness.state().notices().iter().all(|n| !n.is_error),
         "{:?}",
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .map(|n| &n.text)
             .collect::<Vec<_>>()
     );
-    let imported = harness.state().views[0].canvas.layers().clone();
+    let imported = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
     assert!(
         imported.painted_count() > 10_000,
         "{}",
         imported.painted_count()
     );
-    let samples = harness.state().snapshot.stats.samples;
+    let samples = harness.state().document().snapshot().stats.samples;
     assert!(samples > 10_000, "{samples} samples");
 
     harness.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     settle(&mut harness);
     assert!(
-        harness.state().views[0].canvas.layers() == &original,
+        harness.state().document().views()[0].canvas.layers() == &original,
         "undo takes the import back"
     );
-    assert_eq!(harness.state().snapshot.stats.samples, guide_samples);
+    assert_eq!(
+        harness.state().document().snapshot().stats.samples,
+        guide_samples
+    );
     harness.key_press_modifiers(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
     settle(&mut harness);
-    assert!(harness.state().views[0].canvas.layers() == &imported);
-    assert_eq!(harness.state().snapshot.stats.samples, samples);
+    assert!(harness.state().document().views()[0].canvas.layers() == &imported);
+    assert_eq!(harness.state().document().snapshot().stats.samples, samples);
 
     // A painting of the wrong size is refused, naming the file; the canvas keeps its paint.
     let small = dir.path().join("small.png");
@@ -487,12 +525,12 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         .perform(Action::ImportPainting(small.clone()));
     let error = harness
         .state()
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
     assert!(error.text.contains("small.png"), "{}", error.text);
-    assert!(harness.state().views[0].canvas.layers() == &imported);
+    assert!(harness.state().document().views()[0].canvas.layers() == &imported);
 }
 
 /// A glossy reference material written as an EXR table, as File ▸ Load reference reads it.
@@ -538,9 +576,9 @@ fn the_preview_object_is_chosen_apart_from_the_painted_view() {
         }
         seen.push(pixels);
         // The painted view is untouched: still the sphere, still its samples.
-        assert_eq!(harness.state().views[0].scene.object, "sphere");
+        assert_eq!(harness.state().document().views()[0].scene.object, "sphere");
     }
-    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    assert!(harness.state().notices().iter().all(|n| !n.is_error));
 
     harness
         .state_mut()
@@ -550,7 +588,7 @@ fn the_preview_object_is_chosen_apart_from_the_painted_view() {
     settle(&mut harness);
     let error = harness
         .state()
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -569,7 +607,7 @@ fn a_reference_material_loads_and_a_bad_one_is_refused() {
     let mut harness = open_app(config());
     let exr = reference_table(dir.path());
     harness.state_mut().perform(Action::LoadReference(exr));
-    assert!(harness.state().notices.iter().all(|n| !n.is_error));
+    assert!(harness.state().notices().iter().all(|n| !n.is_error));
     let loaded = harness
         .state()
         .preview_state()
@@ -599,7 +637,7 @@ fn a_reference_material_loads_and_a_bad_one_is_refused() {
     harness.state_mut().perform(Action::LoadReference(bad));
     let error = harness
         .state()
-        .notices
+        .notices()
         .iter()
         .find(|n| n.is_error)
         .expect("an error is shown");
@@ -647,7 +685,7 @@ fn the_table_readout_follows_the_pointer() {
 fn inspection_view_snapshots() {
     let dir = tempfile::tempdir().unwrap();
     let mut harness = open_app(config());
-    harness.state_mut().brush.colour = [1.6, 0.5, 0.2];
+    harness.state_mut().brush_mut().colour = [1.6, 0.5, 0.2];
     stroke(&mut harness, (0.25, 0.4), (0.75, 0.4));
     harness
         .state_mut()
@@ -657,7 +695,7 @@ fn inspection_view_snapshots() {
     {
         let app = harness.state_mut();
         app.set_preview_object(PreviewObject::MaterialTest);
-        app.preview.environment = Some(EnvironmentLight::default());
+        app.preview_frame_mut().environment = Some(EnvironmentLight::default());
     }
     settle(&mut harness);
     window_snapshot(&mut harness, "preview_material_test_environment");
@@ -717,7 +755,7 @@ fn press(harness: &mut Harness<'static, BurnishApp>, pos: Pos2, pressed: bool) {
 }
 
 fn error_texts(harness: &Harness<'static, BurnishApp>) -> Vec<String> {
-    let notices = &harness.state().notices;
+    let notices = &harness.state().notices();
     notices
         .iter()
         .filter(|n| n.is_error)
@@ -744,7 +782,7 @@ fn autosave_happens_while_idle_with_no_input() {
     harness
         .ctx
         .set_repaint_observer(move |info| seen.lock().unwrap().push(info.delay));
-    harness.state_mut().brush.size = 20.0;
+    harness.state_mut().brush_mut().size = 20.0;
     let start = canvas_point(&harness, (0.3, 0.5));
     harness.event(Event::PointerMoved(start));
     harness.step();
@@ -761,7 +799,10 @@ fn autosave_happens_while_idle_with_no_input() {
     requests.lock().unwrap().clear();
     let painted_at = std::time::Instant::now();
     harness.step();
-    let painted = harness.state().views[0].canvas.layers().clone();
+    let painted = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
     assert!(painted.painted_count() > 100, "{}", painted.painted_count());
     assert!(!recovery.exists(), "a stroke under way waits for the delay");
 
@@ -782,7 +823,7 @@ fn autosave_happens_while_idle_with_no_input() {
     std::thread::sleep(delay.saturating_sub(painted_at.elapsed()) + Duration::from_millis(100));
     // The frame the event loop draws for that request, with no input.
     harness.step();
-    harness.state_mut().flush_autosave().unwrap();
+    harness.state_mut().document_mut().flush_autosave().unwrap();
     let info = burnish::session::pending_recovery_at(&recovery)
         .unwrap()
         .expect("the idle frame wrote the recovery file");
@@ -798,8 +839,11 @@ fn autosave_happens_while_idle_with_no_input() {
     harness.step();
     std::thread::sleep(burnish::session::AUTOSAVE_MIN_GAP);
     harness.step();
-    harness.state_mut().flush_autosave().unwrap();
-    let finished = harness.state().views[0].canvas.layers().clone();
+    harness.state_mut().document_mut().flush_autosave().unwrap();
+    let finished = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
     assert!(info.open().unwrap().views[0].paint == finished);
 }
 
@@ -816,7 +860,7 @@ fn a_stroke_faster_than_the_frames_loses_no_dab() {
         .collect();
     let paint = |one_frame: bool| {
         let mut harness = open_app(config());
-        harness.state_mut().brush.size = 6.0;
+        harness.state_mut().brush_mut().size = 6.0;
         let points: Vec<Pos2> = path.iter().map(|&p| canvas_point(&harness, p)).collect();
         harness.event(Event::PointerMoved(points[0]));
         harness.step();
@@ -841,7 +885,10 @@ fn a_stroke_faster_than_the_frames_loses_no_dab() {
             }
         }
         settle(&mut harness);
-        harness.state().views[0].canvas.layers().clone()
+        harness.state().document().views()[0]
+            .canvas
+            .layers()
+            .clone()
     };
     let slow = paint(false);
     let fast = paint(true);
@@ -875,7 +922,7 @@ fn a_refused_save_says_why_and_keeps_the_painting() {
     let check = |harness: &mut Harness<'static, BurnishApp>, expected: &str| {
         let before = std::fs::read(&path).unwrap();
         let session = harness.state().to_session();
-        harness.state_mut().notices.clear();
+        harness.state_mut().clear_notices();
         harness
             .state_mut()
             .perform(Action::SaveSession(path.clone()));
@@ -893,9 +940,12 @@ fn a_refused_save_says_why_and_keeps_the_painting() {
         );
         assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 1);
         let app = harness.state();
-        assert!(app.dirty, "the changes are still unsaved");
+        assert!(app.document().is_dirty(), "the changes are still unsaved");
         assert_eq!(app.to_session(), session, "the painting is kept");
-        assert!(app.views[0].canvas.can_undo(), "and so is its undo history");
+        assert!(
+            app.document().views()[0].canvas.can_undo(),
+            "and so is its undo history"
+        );
     };
 
     let mut harness = open_app(config());
@@ -917,20 +967,23 @@ fn a_refused_save_says_why_and_keeps_the_painting() {
 
     // Saving works again once the disk does; the undo history survives the save.
     let mut harness = open_app(config());
-    let guide_samples = harness.state().snapshot.stats.samples;
+    let guide_samples = harness.state().document().snapshot().stats.samples;
     stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
-    let painted = harness.state().views[0].canvas.layers().clone();
+    let painted = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
     harness
         .state_mut()
         .perform(Action::SaveSession(path.clone()));
     assert!(error_texts(&harness).is_empty());
-    assert!(!harness.state().dirty);
-    assert!(harness.state().views[0].canvas.can_undo());
+    assert!(!harness.state().document().is_dirty());
+    assert!(harness.state().document().views()[0].canvas.can_undo());
     harness.state_mut().perform(Action::Undo);
     settle(&mut harness);
-    assert!(harness.state().views[0].canvas.layers() != &painted);
+    assert!(harness.state().document().views()[0].canvas.layers() != &painted);
     assert_eq!(
-        harness.state().snapshot.stats.samples,
+        harness.state().document().snapshot().stats.samples,
         guide_samples,
         "undo after a save"
     );
@@ -945,10 +998,10 @@ fn recovery_brings_back_the_painting_and_is_never_overwritten_before_the_answer(
     let recovery = dir.path().join("recovery.burnish");
     let crashed = {
         let mut harness = open_app(autosaving(&recovery));
-        harness.state_mut().brush.colour = [3.0, 0.5, 0.25];
+        harness.state_mut().brush_mut().colour = [3.0, 0.5, 0.25];
         stroke(&mut harness, (0.3, 0.5), (0.7, 0.5));
         harness.step();
-        harness.state_mut().flush_autosave().unwrap();
+        harness.state_mut().document_mut().flush_autosave().unwrap();
         // No clean exit: dropped as a killed process would leave it (the recovery file stays).
         harness.state().to_session()
     };
@@ -956,31 +1009,37 @@ fn recovery_brings_back_the_painting_and_is_never_overwritten_before_the_answer(
 
     let mut harness = open_app(autosaving(&recovery));
     assert!(
-        harness.state().recovery_offer.is_some(),
+        harness.state().document().recovery_offer().is_some(),
         "recovery is offered"
     );
     harness.get_by_label("Recover");
     // Painting before answering (beside the dialog) writes nothing over the offered file.
     stroke(&mut harness, (0.3, 0.3), (0.3, 0.7));
-    assert!(harness.state().views[0].canvas.layers().painted_count() > 0);
+    assert!(
+        harness.state().document().views()[0]
+            .canvas
+            .layers()
+            .painted_count()
+            > 0
+    );
     std::thread::sleep(burnish::session::AUTOSAVE_MIN_GAP);
     harness.run_steps(2);
-    harness.state_mut().flush_autosave().unwrap();
+    harness.state_mut().document_mut().flush_autosave().unwrap();
     assert_eq!(std::fs::read(&recovery).unwrap(), written);
 
     harness.get_by_label("Recover").click();
     harness.run_steps(2);
     settle(&mut harness);
     let app = harness.state();
-    assert!(app.recovery_offer.is_none());
+    assert!(app.document().recovery_offer().is_none());
     assert_eq!(app.to_session().views, crashed.views);
     assert!(
-        app.snapshot.stats.samples > 0,
+        app.document().snapshot().stats.samples > 0,
         "the recovered paint gives samples"
     );
-    assert!(!app.views[0].canvas.can_undo());
+    assert!(!app.document().views()[0].canvas.can_undo());
     assert!(
-        app.notices
+        app.notices()
             .iter()
             .any(|n| !n.is_error && n.text.contains("Undo history is not kept")),
         "the app says that undo history did not survive"
@@ -1002,9 +1061,9 @@ fn an_unreadable_recovery_file_is_reported_at_start() {
             .any(|e| e.contains("recovery.burnish") && e.contains("can't be recovered")),
         "{errors:?}"
     );
-    assert!(harness.state().recovery_offer.is_none());
+    assert!(harness.state().document().recovery_offer().is_none());
     assert!(dir.path().join("recovery-unreadable.burnish").exists());
-    assert_eq!(harness.state().views.len(), 1);
+    assert_eq!(harness.state().document().views().len(), 1);
 }
 
 /// Bad files the app reads (an object, a painting, a brush preset) say what is wrong with
@@ -1027,7 +1086,7 @@ fn bad_files_the_app_reads_change_nothing() {
     let errors = error_texts(&harness);
     assert!(errors.iter().any(|e| e.contains("cut.toml")), "{errors:?}");
     assert_eq!(
-        harness.state().presets.len(),
+        harness.state().presets().len(),
         1,
         "the good preset is still offered"
     );
@@ -1046,11 +1105,12 @@ fn bad_files_the_app_reads_change_nothing() {
     let bytes = std::fs::read(&exr).unwrap();
     std::fs::write(&exr, &bytes[..bytes.len() / 2]).unwrap();
 
-    harness.state_mut().notices.clear();
+    harness.state_mut().clear_notices();
     let mut scene = session.views[0].scene.clone();
     scene.object = obj.to_string_lossy().into_owned();
     let err = harness
         .state_mut()
+        .document_mut()
         .set_scene(0, scene)
         .unwrap_err()
         .to_string();
@@ -1086,7 +1146,7 @@ fn a_read_only_basis_cache_still_gives_a_basis_with_a_warning() {
             ..config()
         });
         let deadline = std::time::Instant::now() + Duration::from_secs(300);
-        while harness.state().basis.is_none() {
+        while harness.state().document().basis().is_none() {
             assert!(
                 std::time::Instant::now() < deadline,
                 "the basis was never built"
@@ -1096,13 +1156,16 @@ fn a_read_only_basis_cache_still_gives_a_basis_with_a_warning() {
         }
         settle(&mut harness);
         let app = harness.state();
-        assert!(app.snapshot.basis.is_some(), "the worker solves with it");
         assert!(
-            app.notices.iter().any(|n| n.text.contains("warning")
+            app.document().snapshot().basis.is_some(),
+            "the worker solves with it"
+        );
+        assert!(
+            app.notices().iter().any(|n| n.text.contains("warning")
                 && n.text.contains("could not be cached")
                 && n.text.contains("Permission denied")),
             "{:?}",
-            app.notices.iter().map(|n| &n.text).collect::<Vec<_>>()
+            app.notices().iter().map(|n| &n.text).collect::<Vec<_>>()
         );
         harness.get_by_label_contains("basis ready, not cached");
     });
@@ -1126,7 +1189,7 @@ fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
             harness.step();
             if harness
                 .state()
-                .notices
+                .notices()
                 .iter()
                 .any(|n| n.text.contains(what))
             {
@@ -1152,12 +1215,15 @@ fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
         "{errors:?}"
     );
     assert!(!recovery.exists());
-    let painted = harness.state().views[0].canvas.layers().clone();
+    let painted = harness.state().document().views()[0]
+        .canvas
+        .layers()
+        .clone();
     assert!(painted.painted_count() > 500, "the painting is kept");
 
     drop(full);
     step_until(&mut harness, "autosave works again");
-    harness.state_mut().flush_autosave().unwrap();
+    harness.state_mut().document_mut().flush_autosave().unwrap();
     let info = burnish::session::pending_recovery_at(&recovery)
         .unwrap()
         .expect("written once the disk takes it");
@@ -1173,7 +1239,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     use burnish::export::{BsdfSettings, RglBsdf, load_table, rgl};
     let dir = tempfile::tempdir().unwrap();
     let mut harness = open_app(config());
-    let mean = harness.state().snapshot.coefficients.clone();
+    let mean = harness.state().document().snapshot().coefficients.clone();
     let table = burnish::table::exr_file::read_table_exr(reference_table(dir.path())).unwrap();
     let bsdf = dir.path().join("start.bsdf");
     rgl::write_bsdf(&bsdf, &table, &BsdfSettings::default()).unwrap();
@@ -1181,13 +1247,18 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     harness.state_mut().perform(Action::StartFrom(bsdf.clone()));
     settle(&mut harness);
     let app = harness.state();
-    assert!(app.notices.iter().all(|n| !n.is_error));
-    assert_eq!(app.start_material_name(), Some("start.bsdf"));
+    assert!(app.notices().iter().all(|n| !n.is_error));
+    assert_eq!(app.document().start_material_name(), Some("start.bsdf"));
     assert_eq!(
         app.preview_state().reference.as_ref().unwrap().name,
         "start.bsdf"
     );
-    let basis = app.snapshot.basis.clone().expect("the basis is ready");
+    let basis = app
+        .document()
+        .snapshot()
+        .basis
+        .clone()
+        .expect("the basis is ready");
     let projection = OracleProjector::new(basis).project(&load_table(&bsdf).unwrap());
     let distance = |a: &[[f64; 3]], b: &[[f64; 3]]| {
         a.iter()
@@ -1196,10 +1267,10 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
             .sum::<f64>()
             .sqrt()
     };
-    let started = app.snapshot.coefficients.clone();
+    let started = app.document().snapshot().coefficients.clone();
     // The canvas now shows the material (unpainted pixels count as shown) and the prior's
     // mean is its projection: the solution sits at the projection, far from the guide's.
-    let view = &app.views[0];
+    let view = &app.document().views()[0];
     let render = burnish::scene::render_table(&view.gbuffer, &load_table(&bsdf).unwrap());
     assert!(
         view.prediction() == Some(&render),
@@ -1225,10 +1296,10 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     }
     settle(&mut harness);
     let app = harness.state();
-    assert!(app.notices.iter().all(|n| !n.is_error));
+    assert!(app.notices().iter().all(|n| !n.is_error));
     assert!(RglBsdf::read(&dir.path().join("out.bsdf")).is_ok());
     let fits = app
-        .notices
+        .notices()
         .iter()
         .filter(|n| n.text.contains("dB PSNR"))
         .count();
@@ -1239,7 +1310,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     assert!(
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .any(|n| n.is_error && n.text.contains("out.png"))
     );
@@ -1252,17 +1323,20 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
     assert!(
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .any(|n| n.is_error && n.text.contains("broken.bsdf"))
     );
-    assert_eq!(harness.state().start_material_name(), Some("start.bsdf"));
+    assert_eq!(
+        harness.state().document().start_material_name(),
+        Some("start.bsdf")
+    );
     harness.state_mut().perform(Action::NewSession);
     settle(&mut harness);
-    assert_eq!(harness.state().start_material_name(), None);
+    assert_eq!(harness.state().document().start_material_name(), None);
     // The start is dropped: the new session's guide pulls the solution back away from the
     // material, as far as a fresh session's.
-    let cleared = harness.state().snapshot.coefficients.clone();
+    let cleared = harness.state().document().snapshot().coefficients.clone();
     assert!(
         distance(&cleared, &tiled) > 2.0 * distance(&started, &tiled),
         "{} vs {}",
@@ -1274,7 +1348,7 @@ fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
 /// Where view `index`'s mirror highlight sits on its canvas (fractions of the side): the lit
 /// object pixel whose local half vector is closest to its normal.
 fn highlight_point(app: &BurnishApp, index: usize) -> (f32, f32) {
-    let gbuffer = &app.views[index].gbuffer;
+    let gbuffer = &app.document().views()[index].gbuffer;
     let n = gbuffer.resolution();
     let best = (0..n * n)
         .filter_map(|i| {
@@ -1325,17 +1399,17 @@ fn moved_pixels(a: &[[u8; 4]], b: &[[u8; 4]], width: usize) -> (usize, usize) {
 /// Returns (moved, moved away from the highlight, preview pixels).
 fn highlight_stroke_moves(rule: UnpaintedPixels) -> (usize, usize, usize) {
     let mut harness = open_app(config());
-    harness.state_mut().set_unpainted(0, rule);
+    harness.state_mut().document_mut().set_unpainted(0, rule);
     settle(&mut harness);
     let before = preview_pixels(&mut harness);
     let (u, v) = highlight_point(harness.state(), 0);
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Round;
-        app.brush.colour = [3.0, 3.0, 3.0];
-        app.brush.size = 16.0;
-        app.brush.opacity = 1.0;
-        app.brush.flow = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Round;
+        app.brush_mut().colour = [3.0, 3.0, 3.0];
+        app.brush_mut().size = 16.0;
+        app.brush_mut().opacity = 1.0;
+        app.brush_mut().flow = 1.0;
     }
     stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
     let after = preview_pixels(&mut harness);
@@ -1385,19 +1459,23 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         ..config()
     });
     let deadline = std::time::Instant::now() + Duration::from_secs(300);
-    while harness.state().basis.is_none() {
+    while harness.state().document().basis().is_none() {
         assert!(std::time::Instant::now() < deadline, "no basis");
         std::thread::sleep(Duration::from_millis(100));
         harness.step();
     }
     settle(&mut harness);
-    harness.state_mut().brush.colour = [1.6, 1.1, 0.7];
+    harness.state_mut().brush_mut().colour = [1.6, 1.1, 0.7];
     stroke(&mut harness, (0.3, 0.4), (0.7, 0.5));
     let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, harness.state().views[0].scene.to_toml()).unwrap();
+    std::fs::write(
+        &scene,
+        harness.state().document().views()[0].scene.to_toml(),
+    )
+    .unwrap();
     let painting = dir.path().join("painting.exr");
     for rule in [UnpaintedPixels::CountAsShown, UnpaintedPixels::Ignore] {
-        harness.state_mut().set_unpainted(0, rule);
+        harness.state_mut().document_mut().set_unpainted(0, rule);
         settle(&mut harness);
         let app_table = dir.path().join(format!("app-{rule}.exr"));
         let cli_table = dir.path().join(format!("cli-{rule}.exr"));
@@ -1461,9 +1539,9 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
     let mut harness = open_app(config());
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Fill;
-        app.brush.colour = [0.30, 0.16, 0.09];
-        app.brush.opacity = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Fill;
+        app.brush_mut().colour = [0.30, 0.16, 0.09];
+        app.brush_mut().opacity = 1.0;
     }
     let centre = canvas_point(&harness, (0.5, 0.5));
     click_at(&mut harness, centre);
@@ -1471,25 +1549,25 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
     let (u, v) = highlight_point(harness.state(), 0);
     {
         let app = harness.state_mut();
-        app.brush.kind = burnish::paint::BrushKind::Round;
-        app.brush.colour = [2.5, 2.4, 2.2];
-        app.brush.size = 16.0;
-        app.brush.flow = 1.0;
+        app.brush_mut().kind = burnish::paint::BrushKind::Round;
+        app.brush_mut().colour = [2.5, 2.4, 2.2];
+        app.brush_mut().size = 16.0;
+        app.brush_mut().flow = 1.0;
     }
     stroke(&mut harness, (u - 0.03, v), (u + 0.03, v));
     let table = |app: &BurnishApp| {
         Reconstruction::new(
-            app.snapshot.basis.clone().unwrap(),
-            &app.snapshot.coefficients,
+            app.document().snapshot().basis.clone().unwrap(),
+            &app.document().snapshot().coefficients,
         )
         .materialize()
     };
     let before = table(harness.state());
-    let view1_before = render_table(&harness.state().views[0].gbuffer, &before);
+    let view1_before = render_table(&harness.state().document().views()[0].gbuffer, &before);
 
     harness.state_mut().perform(Action::AddView);
     let deadline = std::time::Instant::now() + Duration::from_secs(120);
-    while harness.state().views[1].base() != Base::Prediction {
+    while harness.state().document().views()[1].base() != Base::Prediction {
         assert!(
             std::time::Instant::now() < deadline,
             "no prediction arrived"
@@ -1506,13 +1584,16 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
             .acos()
             .to_degrees()
     };
-    let (a1, a2) = (angle(&app.views[0].scene), angle(&app.views[1].scene));
+    let (a1, a2) = (
+        angle(&app.document().views()[0].scene),
+        angle(&app.document().views()[1].scene),
+    );
     assert!(
         (a1 - a2).abs() > 20.0,
         "the new view has another light–view angle ({a1:.0}° vs {a2:.0}°)"
     );
     // Its canvas is the BRDF rendered for it, where the guide would be grey.
-    let doc = &app.views[1];
+    let doc = &app.document().views()[1];
     let expected = render_table(&doc.gbuffer, &before);
     let shown = &doc.canvas.layers().colour;
     let worst = shown
@@ -1541,11 +1622,11 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
     let at = |(u, v): (f32, f32)| (v * n as f32) as usize * n + (u * n as f32) as usize;
     let predicted = shown.pixels[at((u2, v2))];
     let correction = predicted.map(|c| c * 0.3);
-    harness.state_mut().brush.colour = correction;
+    harness.state_mut().brush_mut().colour = correction;
     stroke(&mut harness, (u2 - 0.04, v2), (u2 + 0.04, v2));
     let app = harness.state();
     let after = table(app);
-    let doc = &app.views[1];
+    let doc = &app.document().views()[1];
     let corrected: Vec<usize> = (0..n * n)
         .filter(|&i| doc.canvas.layers().coverage[i] > 0.99)
         .collect();
@@ -1567,7 +1648,7 @@ fn a_new_view_starts_from_the_current_brdf_and_a_correction_there_stays_local() 
         error_after < 0.7 * error_before,
         "the BRDF moves toward the correction ({error_before:.4} → {error_after:.4})"
     );
-    let view1_after = render_table(&app.views[0].gbuffer, &after);
+    let view1_after = render_table(&app.document().views()[0].gbuffer, &after);
     let mut changes: Vec<f32> = view1_before
         .pixels
         .iter()
@@ -1607,23 +1688,28 @@ fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated
             harness.step();
         }
     };
-    wait(&mut harness, "ranking", &|app| app.suggestion_pending());
+    wait(&mut harness, "ranking", &|app| {
+        app.document().suggestion_pending()
+    });
     settle(&mut harness);
     let app = harness.state();
-    assert_eq!(app.views.len(), 2);
-    assert_eq!(app.active, 1);
-    let (base, suggested) = (&app.views[0].scene, &app.views[1].scene);
+    assert_eq!(app.document().views().len(), 2);
+    assert_eq!(app.document().active(), 1);
+    let (base, suggested) = (
+        &app.document().views()[0].scene,
+        &app.document().views()[1].scene,
+    );
     let candidates = burnish::next_view::candidate_scenes(base, burnish::app::SUGGEST_CANDIDATES);
     assert!(candidates.contains(suggested), "{suggested:?}");
     assert_ne!(suggested, base);
     assert!(
-        app.notices
+        app.notices()
             .iter()
             .any(|n| n.text.starts_with("suggested view:")),
         "the suggestion is reported"
     );
 
-    harness.state_mut().preview_tab = PreviewTab::Table;
+    harness.state_mut().set_preview_tab(PreviewTab::Table);
     harness
         .state_mut()
         .preview_state_mut()
@@ -1631,7 +1717,7 @@ fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated
         .uncertain = true;
     harness.run_steps(2);
     wait(&mut harness, "uncertainty", &|app| {
-        app.uncertainty_pending() || app.preview_state().uncertainty.is_none()
+        app.document().uncertainty_pending() || app.preview_state().uncertainty.is_none()
     });
     let app = harness.state();
     let sigma = app.preview_state().uncertainty.clone().unwrap();
@@ -1641,7 +1727,7 @@ fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated
         let (sum, n) = pairs.fold((0.0f64, 0usize), |(s, n), p| (s + sigma[p] as f64, n + 1));
         sum / n as f64
     };
-    let observed = mean_of(&mut app.observed.keys().map(|&p| p as usize));
+    let observed = mean_of(&mut app.document().observed().keys().map(|&p| p as usize));
     let all = mean_of(&mut (0..sigma.len()));
     assert!(observed < all, "observed bins {observed} against all {all}");
 }
@@ -1686,9 +1772,9 @@ fn compare_mode_shows_the_material_beside_the_reconstruction_and_their_differenc
     settle(&mut harness);
     assert!(harness.state().preview_state().compare);
     assert!(
-        harness.state().notices.iter().all(|n| !n.is_error),
+        harness.state().notices().iter().all(|n| !n.is_error),
         "{:?}",
-        harness.state().notices
+        harness.state().notices()
     );
     let rects = harness
         .state()
@@ -1776,7 +1862,8 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
         settle(&mut harness);
         let prior = harness
             .state()
-            .snapshot
+            .document()
+            .snapshot()
             .prior_mean
             .clone()
             .expect("the start sets the prior mean");
@@ -1790,13 +1877,16 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
         harness.step();
         std::thread::sleep(burnish::session::AUTOSAVE_MIN_GAP);
         harness.step();
-        harness.state_mut().flush_autosave().unwrap();
+        harness.state_mut().document_mut().flush_autosave().unwrap();
         assert!(
-            harness.state().notices.iter().all(|n| !n.is_error),
+            harness.state().notices().iter().all(|n| !n.is_error),
             "{:?}",
-            harness.state().notices
+            harness.state().notices()
         );
-        (prior, harness.state().snapshot.coefficients.clone())
+        (
+            prior,
+            harness.state().document().snapshot().coefficients.clone(),
+        )
     };
     // The material's file is gone: the session holds its own copy.
     std::fs::remove_file(&material).unwrap();
@@ -1806,9 +1896,9 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
         ..config()
     });
     let app = reopened.state();
-    assert_eq!(app.start_material_name(), Some("reference.exr"));
+    assert_eq!(app.document().start_material_name(), Some("reference.exr"));
     assert_eq!(
-        app.snapshot.prior_mean.as_deref(),
+        app.document().snapshot().prior_mean.as_deref(),
         Some(&*prior),
         "the same prior mean"
     );
@@ -1824,12 +1914,27 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
     });
     settle(&mut recovered);
     let app = recovered.state();
-    assert!(app.recovery_offer.is_none(), "recovered at once");
-    assert_eq!(app.start_material_name(), Some("reference.exr"));
-    assert_eq!(app.snapshot.prior_mean.as_deref(), Some(&*prior));
+    assert!(
+        app.document().recovery_offer().is_none(),
+        "recovered at once"
+    );
+    assert_eq!(app.document().start_material_name(), Some("reference.exr"));
+    assert_eq!(
+        app.document().snapshot().prior_mean.as_deref(),
+        Some(&*prior)
+    );
     // The same samples on the same start, added in another order: equal up to rounding.
-    assert_eq!(app.snapshot.coefficients.len(), coefficients.len());
-    for (x, y) in app.snapshot.coefficients.iter().zip(coefficients.iter()) {
+    assert_eq!(
+        app.document().snapshot().coefficients.len(),
+        coefficients.len()
+    );
+    for (x, y) in app
+        .document()
+        .snapshot()
+        .coefficients
+        .iter()
+        .zip(coefficients.iter())
+    {
         for c in 0..3 {
             assert!(
                 (x[c] - y[c]).abs() <= 1e-9 * (1.0 + y[c].abs()),
@@ -1841,8 +1946,8 @@ fn the_starting_material_is_saved_with_the_session_and_recovered() {
     // A new session starts from the database's mean again.
     recovered.state_mut().perform(Action::NewSession);
     settle(&mut recovered);
-    assert_eq!(recovered.state().start_material_name(), None);
-    assert_eq!(recovered.state().snapshot.prior_mean, None);
+    assert_eq!(recovered.state().document().start_material_name(), None);
+    assert_eq!(recovered.state().document().snapshot().prior_mean, None);
 }
 
 /// An export runs on its own thread: the window keeps drawing frames and says what it is
@@ -1855,18 +1960,18 @@ fn an_export_runs_off_the_ui_thread_and_the_window_keeps_drawing() {
     let out = dir.path().join("material.bsdf");
     harness.state_mut().perform(Action::Export(out.clone()));
     assert!(
-        harness.state().file_jobs_pending(),
+        harness.state().document().file_jobs_pending(),
         "perform returns while the export runs"
     );
     // (egui shows a new area from its second frame.)
     harness.run_steps(2);
     // Writing a .bsdf (the full table, the NDF's power iteration, the warped grids) takes
     // seconds: the first frames after the request come long before it is done.
-    assert!(harness.state().file_jobs_pending());
+    assert!(harness.state().document().file_jobs_pending());
     harness.get_by_label_contains("exporting material.bsdf");
     let mut frames = 2;
     let deadline = std::time::Instant::now() + Duration::from_secs(300);
-    while harness.state().file_jobs_pending() {
+    while harness.state().document().file_jobs_pending() {
         assert!(
             std::time::Instant::now() < deadline,
             "the export never ended"
@@ -1880,11 +1985,11 @@ fn an_export_runs_off_the_ui_thread_and_the_window_keeps_drawing() {
     assert!(burnish::export::RglBsdf::read(&out).is_ok());
     let app = harness.state();
     assert!(
-        app.notices
+        app.notices()
             .iter()
             .any(|n| !n.is_error && n.text.contains("material.bsdf")),
         "{:?}",
-        app.notices
+        app.notices()
     );
     assert!(harness.query_by_label_contains("exporting").is_none());
 
@@ -1896,11 +2001,11 @@ fn an_export_runs_off_the_ui_thread_and_the_window_keeps_drawing() {
     assert!(
         harness
             .state()
-            .notices
+            .notices()
             .iter()
             .any(|n| n.is_error && n.text.contains("material.gltf")),
         "{:?}",
-        harness.state().notices
+        harness.state().notices()
     );
     assert!(!unwritable.exists());
 }

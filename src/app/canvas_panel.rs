@@ -28,6 +28,9 @@ pub struct CanvasView {
     pressure: Option<f32>,
     /// What the last frame showed: canvas rectangle on screen and canvas resolution.
     pub(crate) last_layout: Option<(Rect, usize)>,
+    /// The document's canvas revision the texture shows (see
+    /// [`crate::document::Document::canvas_revision`]).
+    revision: u64,
 }
 
 struct StrokeInput {
@@ -35,6 +38,14 @@ struct StrokeInput {
 }
 
 impl CanvasView {
+    /// Shows the canvas afresh if the document replaced it since the last frame.
+    fn follow(&mut self, revision: u64) {
+        if self.revision != revision {
+            self.revision = revision;
+            self.invalidate();
+        }
+    }
+
     pub fn invalidate(&mut self) {
         self.stale = true;
         self.overlay = None;
@@ -212,7 +223,8 @@ fn colour_picker(app: &mut BurnishApp, ui: &mut egui::Ui) {
 }
 
 fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
-    let Some(doc) = app.views.get(app.active) else {
+    app.canvas_view.follow(app.doc.canvas_revision());
+    let Some(doc) = app.doc.active_view() else {
         return;
     };
     let view_id = doc.id;
@@ -256,7 +268,7 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
         );
     }
     if app.guide_opacity > 0.0
-        && let Some(doc) = app.views.get(app.active)
+        && let Some(doc) = app.doc.active_view()
     {
         let side = doc.guide.width;
         let current = app
@@ -304,7 +316,7 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
 }
 
 fn upload_texture(app: &mut BurnishApp, ctx: &egui::Context, view_id: u32) {
-    let Some(doc) = app.views.get(app.active) else {
+    let Some(doc) = app.doc.active_view() else {
         return;
     };
     let layers = doc.canvas.layers();
@@ -350,7 +362,7 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
     if fresh {
         return;
     }
-    let Some(doc) = app.views.get(app.active) else {
+    let Some(doc) = app.doc.active_view() else {
         return;
     };
     let n = doc.gbuffer.resolution();
@@ -364,9 +376,9 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
             continue;
         }
         let pair = pair_index(l, v) as u32;
-        if app.inconsistent.contains(&pair) {
+        if app.doc.inconsistent().contains(&pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(255, 40, 40, 150);
-        } else if !app.observed.contains_key(&pair) {
+        } else if !app.doc.observed().contains_key(&pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(40, 120, 255, 70);
         }
     }
@@ -398,7 +410,7 @@ fn paint_input(
     // A press starts a stroke only on the canvas itself, not under a menu or popup over it.
     let on_canvas = |pos: Pos2| response.rect.contains(pos) && ctx.layer_id_at(pos) == Some(layer);
     let to_canvas = |pos: Pos2| CanvasView::to_canvas(rect, resolution, pos);
-    let Some(doc) = app.views.get_mut(app.active) else {
+    let Some(canvas) = app.doc.active_canvas_mut() else {
         return;
     };
     let view = &mut app.canvas_view;
@@ -415,11 +427,11 @@ fn paint_input(
             } if view.stroke.is_none() && on_canvas(*pos) => {
                 let (x, y) = to_canvas(*pos);
                 match kind {
-                    BrushKind::Eyedropper => app.brush.colour = doc.canvas.pick(x, y),
-                    BrushKind::Fill => doc.canvas.fill(&brush),
+                    BrushKind::Eyedropper => app.brush.colour = canvas.pick(x, y),
+                    BrushKind::Fill => canvas.fill(&brush),
                     _ => {
-                        doc.canvas.set_tip(tip.clone());
-                        doc.canvas.begin_stroke(&brush, x, y, pressure);
+                        canvas.set_tip(tip.clone());
+                        canvas.begin_stroke(&brush, x, y, pressure);
                         view.stroke = Some(StrokeInput {
                             last_time: frame_start,
                         });
@@ -428,7 +440,7 @@ fn paint_input(
             }
             egui::Event::PointerMoved(pos) if view.stroke.is_some() => {
                 let (x, y) = to_canvas(*pos);
-                doc.canvas.continue_stroke(x, y, pressure);
+                canvas.continue_stroke(x, y, pressure);
                 moved = true;
             }
             egui::Event::PointerButton {
@@ -438,8 +450,8 @@ fn paint_input(
                 ..
             } if view.stroke.is_some() => {
                 let (x, y) = to_canvas(*pos);
-                doc.canvas.continue_stroke(x, y, pressure);
-                doc.canvas.end_stroke();
+                canvas.continue_stroke(x, y, pressure);
+                canvas.end_stroke();
                 view.stroke = None;
             }
             _ => {}
@@ -449,15 +461,15 @@ fn paint_input(
         let dt = frame_start.duration_since(stroke.last_time).as_secs_f32();
         stroke.last_time = frame_start;
         if !moved && kind == BrushKind::Airbrush && primary_down {
-            doc.canvas.airbrush_tick(dt);
+            canvas.airbrush_tick(dt);
             ui.ctx().request_repaint();
         }
         // The release was lost (the window lost the pointer): the stroke ends here.
         if !primary_down {
-            doc.canvas.end_stroke();
+            canvas.end_stroke();
             view.stroke = None;
         }
     }
-    let changes = doc.canvas.take_changes();
+    let changes = canvas.take_changes();
     app.publish_canvas_changes(changes, frame_start);
 }

@@ -1,53 +1,29 @@
-//! The menu bar, keyboard shortcuts, file dialogs and the windows over the panels (notices,
-//! recovery, unsaved changes). Each choice becomes an [`Action`] or an app method.
+//! The menu bar, keyboard shortcuts and the windows over the panels (notices, recovery,
+//! unsaved changes). Each choice is a [`UiCommand`] or an [`Action`].
 
+use super::commands::{UiCommand, When, ask_export, ask_open};
 use super::{Action, BurnishApp};
 use crate::export::Format;
-use egui::{Key, KeyboardShortcut, Modifiers};
+use egui::Key;
 use std::path::PathBuf;
-
-const UNDO: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::Z);
-const REDO: KeyboardShortcut =
-    KeyboardShortcut::new(Modifiers::COMMAND.plus(Modifiers::SHIFT), Key::Z);
-const SAVE: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::S);
-const OPEN: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::O);
-const NEW_VIEW: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::T);
-const EXPORT: KeyboardShortcut = KeyboardShortcut::new(Modifiers::COMMAND, Key::E);
 
 /// Keyboard shortcuts that work wherever the focus is.
 pub(super) fn shortcuts(app: &mut BurnishApp, ctx: &egui::Context) {
-    // Redo first: Ctrl+Z also matches Ctrl+Shift+Z logically and would consume it.
-    let (redo, undo, save, open, new_view, export, smaller, larger) = ctx.input_mut(|i| {
+    let (pressed, smaller, larger) = ctx.input_mut(|i| {
+        let pressed: Vec<UiCommand> = UiCommand::ALL
+            .into_iter()
+            .filter(|c| c.shortcut().is_some_and(|s| i.consume_shortcut(&s)))
+            .collect();
         (
-            i.consume_shortcut(&REDO),
-            i.consume_shortcut(&UNDO),
-            i.consume_shortcut(&SAVE),
-            i.consume_shortcut(&OPEN),
-            i.consume_shortcut(&NEW_VIEW),
-            i.consume_shortcut(&EXPORT),
+            pressed,
             i.key_pressed(Key::OpenBracket),
             i.key_pressed(Key::CloseBracket),
         )
     });
-    if redo {
-        app.perform(Action::Redo);
-    } else if undo {
-        app.perform(Action::Undo);
-    }
-    if save {
-        match app.session_path.clone() {
-            Some(path) => app.perform(Action::SaveSession(path)),
-            None => pick_save(app, "Save session", "burnish", Action::SaveSession),
+    for command in pressed {
+        if command.is_enabled(app) {
+            app.run_command(command, When::Now);
         }
-    }
-    if open {
-        pick_open(app, "Open session", &["burnish"], Action::OpenSession);
-    }
-    if new_view {
-        app.perform(Action::AddView);
-    }
-    if export {
-        pick_save(app, "Export BRDF table", "exr", Action::ExportTable);
     }
     if smaller {
         app.brush.size = (app.brush.size / 1.2).max(1.0);
@@ -64,178 +40,86 @@ pub(super) fn pick_open(
     ext: &[&str],
     action: fn(PathBuf) -> Action,
 ) {
-    if let Some(path) = rfd::FileDialog::new()
-        .set_title(title)
-        .add_filter(ext.join(", "), ext)
-        .pick_file()
-    {
+    if let Some(path) = ask_open(title, ext) {
         app.queue(action(path));
     }
 }
 
-fn pick_save(app: &mut BurnishApp, title: &str, ext: &str, action: fn(PathBuf) -> Action) {
-    if let Some(mut path) = rfd::FileDialog::new()
-        .set_title(title)
-        .add_filter(ext, &[ext])
-        .save_file()
-    {
-        if path.extension().is_none() {
-            path.set_extension(ext);
-        }
-        app.queue(action(path));
+/// A menu entry for `command`: its label and shortcut, greyed out when it cannot be chosen.
+fn command_button(ui: &mut egui::Ui, app: &mut BurnishApp, command: UiCommand) {
+    let mut button = egui::Button::new(command.label());
+    if let Some(shortcut) = command.shortcut() {
+        button = button.shortcut_text(ui.ctx().format_shortcut(&shortcut));
+    }
+    if ui.add_enabled(command.is_enabled(app), button).clicked() {
+        app.run_command(command, When::NextFrame);
     }
 }
 
 pub(super) fn menu_bar(app: &mut BurnishApp, ui: &mut egui::Ui) {
     egui::MenuBar::new().ui(ui, |ui| {
         ui.menu_button("File", |ui| {
-            if ui.button("New session").clicked() {
-                app.queue(Action::NewSession);
-            }
-            if ui
-                .add(
-                    egui::Button::new("Open session…")
-                        .shortcut_text(ui.ctx().format_shortcut(&OPEN)),
-                )
-                .clicked()
-            {
-                pick_open(app, "Open session", &["burnish"], Action::OpenSession);
-            }
-            if ui
-                .add(
-                    egui::Button::new("Save session")
-                        .shortcut_text(ui.ctx().format_shortcut(&SAVE)),
-                )
-                .clicked()
-            {
-                match app.session_path.clone() {
-                    Some(path) => app.queue(Action::SaveSession(path)),
-                    None => pick_save(app, "Save session", "burnish", Action::SaveSession),
-                }
-            }
-            if ui.button("Save session as…").clicked() {
-                pick_save(app, "Save session", "burnish", Action::SaveSession);
+            for command in [
+                UiCommand::NewSession,
+                UiCommand::OpenSession,
+                UiCommand::SaveSession,
+                UiCommand::SaveSessionAs,
+            ] {
+                command_button(ui, app, command);
             }
             ui.separator();
-            if ui.button("Export guide PNG…").clicked() {
-                pick_save(app, "Export guide", "png", Action::ExportGuide);
-            }
-            if ui
-                .button("Export painting and mask (EXR or PNG)…")
-                .clicked()
-            {
-                pick_save(app, "Export painting", "exr", Action::ExportPainting);
-            }
-            if ui.button("Import painting (PNG or EXR)…").clicked() {
-                pick_open(
-                    app,
-                    "Import painting",
-                    &["png", "exr"],
-                    Action::ImportPainting,
-                );
+            for command in [
+                UiCommand::ExportGuide,
+                UiCommand::ExportPainting,
+                UiCommand::ImportPainting,
+            ] {
+                command_button(ui, app, command);
             }
             ui.separator();
-            if ui
-                .add(
-                    egui::Button::new("Export BRDF as EXR table…")
-                        .shortcut_text(ui.ctx().format_shortcut(&EXPORT)),
-                )
-                .clicked()
-            {
-                pick_save(app, "Export BRDF table", "exr", Action::ExportTable);
-            }
-            if ui.button("Export BRDF as MERL binary…").clicked() {
-                pick_save(app, "Export MERL BRDF", "binary", Action::ExportMerl);
-            }
+            command_button(ui, app, UiCommand::ExportTable);
+            command_button(ui, app, UiCommand::ExportMerl);
             ui.menu_button("Export BRDF for other renderers", |ui| {
                 for format in [Format::RglBsdf, Format::MaterialX, Format::Gltf] {
                     let label = format!("{} (.{})…", format.label(), format.extension());
-                    if ui.button(label).clicked() {
-                        pick_save(app, format.label(), format.extension(), Action::Export);
+                    if ui.button(label).clicked()
+                        && let Some(action) = ask_export(format)
+                    {
+                        app.queue(action);
                     }
                 }
             });
             ui.separator();
-            let readable = Format::readable_extensions();
-            if ui.button("Start from a material…").clicked() {
-                pick_open(
-                    app,
-                    "Start from a material (EXR table, MERL binary or .bsdf)",
-                    &readable,
-                    Action::StartFrom,
-                );
-            }
-            if let Some(name) = app.start_material_name().map(str::to_owned)
+            command_button(ui, app, UiCommand::StartFrom);
+            if let Some(name) = app.doc.start_material_name().map(str::to_owned)
                 && ui
                     .button(format!("Clear starting material ({name})"))
                     .clicked()
             {
                 app.queue(Action::ClearStart);
             }
-            if ui.button("Load reference material…").clicked() {
-                pick_open(
-                    app,
-                    "Load reference material (EXR table, MERL binary or .bsdf)",
-                    &readable,
-                    Action::LoadReference,
-                );
-            }
+            command_button(ui, app, UiCommand::LoadReference);
         });
         ui.menu_button("Edit", |ui| {
-            let doc = app.active_view();
-            let (can_undo, can_redo) = doc.map_or((false, false), |d| {
-                (d.canvas.can_undo(), d.canvas.can_redo())
-            });
-            if ui
-                .add_enabled(
-                    can_undo,
-                    egui::Button::new("Undo stroke").shortcut_text(ui.ctx().format_shortcut(&UNDO)),
-                )
-                .clicked()
-            {
-                app.queue(Action::Undo);
-            }
-            if ui
-                .add_enabled(
-                    can_redo,
-                    egui::Button::new("Redo stroke").shortcut_text(ui.ctx().format_shortcut(&REDO)),
-                )
-                .clicked()
-            {
-                app.queue(Action::Redo);
-            }
+            command_button(ui, app, UiCommand::Undo);
+            command_button(ui, app, UiCommand::Redo);
             ui.separator();
-            if ui.button("Fill object with brush colour").clicked() {
-                app.fill_active();
-            }
+            command_button(ui, app, UiCommand::Fill);
         });
         ui.menu_button("View", |ui| {
-            if ui
-                .add(
-                    egui::Button::new("Add view")
-                        .shortcut_text(ui.ctx().format_shortcut(&NEW_VIEW)),
-                )
-                .clicked()
-            {
-                app.queue(Action::AddView);
-            }
-            if ui.button("Suggest next view").clicked() {
-                app.queue(Action::SuggestView);
-            }
+            command_button(ui, app, UiCommand::AddView);
+            command_button(ui, app, UiCommand::SuggestView);
             ui.checkbox(
                 &mut app.show_overlay,
                 "Show disagreement and coverage overlay",
             );
-            if ui.button("Zoom to fit").clicked() {
-                app.canvas_view.reset_zoom();
-            }
+            command_button(ui, app, UiCommand::ZoomToFit);
         });
     });
 }
 
 /// Notices and the recovery question.
 pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
-    if let Some(info) = app.recovery_offer.clone() {
+    if let Some(info) = app.doc.recovery_offer().cloned() {
         egui::Window::new("Recover unsaved work?")
             .collapsible(false)
             .resizable(false)
@@ -267,27 +151,17 @@ pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
             .show(ctx, |ui| {
                 ui.horizontal(|ui| {
                     if ui.button("Save").clicked() {
-                        match app.session_path.clone() {
-                            Some(path) => app.perform(Action::SaveSession(path)),
-                            None => {
-                                if let Some(path) = rfd::FileDialog::new()
-                                    .add_filter("burnish", &["burnish"])
-                                    .save_file()
-                                {
-                                    app.perform(Action::SaveSession(path));
-                                }
-                            }
-                        }
+                        app.run_command(UiCommand::SaveSession, When::Now);
                         app.confirm_close = false;
-                        if !app.dirty {
-                            app.discard_recovery();
+                        if !app.doc.is_dirty() {
+                            app.doc.discard_recovery();
                             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                         }
                     }
                     if ui.button("Don't save").clicked() {
-                        app.dirty = false;
+                        app.doc.discard_unsaved();
                         app.confirm_close = false;
-                        app.discard_recovery();
+                        app.doc.discard_recovery();
                         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                     }
                     if ui.button("Cancel").clicked() {
@@ -296,8 +170,8 @@ pub(super) fn dialogs(app: &mut BurnishApp, ctx: &egui::Context) {
                 });
             });
     }
-    if app.file_jobs_pending() {
-        let labels: Vec<String> = app.file_jobs.labels().map(str::to_owned).collect();
+    if app.doc.file_jobs_pending() {
+        let labels: Vec<String> = app.doc.file_job_labels().map(str::to_owned).collect();
         egui::Area::new(egui::Id::unique("burnish-file-jobs"))
             .anchor(egui::Align2::LEFT_BOTTOM, [12.0, -36.0])
             .show(ctx, |ui| {

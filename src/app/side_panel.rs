@@ -2,12 +2,11 @@
 //! reconstruction settings.
 
 use super::widgets::light_dial;
-use super::{Action, BasisJob, BurnishApp};
-use crate::basis::{BasisCache, BasisSpec};
+use super::{Action, BurnishApp};
+use crate::basis::BasisSpec;
 use crate::paint::UnpaintedPixels;
 use crate::scene::{BuiltinShape, Projection, Scene};
 use crate::solver::{Policy, Regularization};
-use crate::worker::Command;
 
 const SHAPES: [BuiltinShape; 4] = [
     BuiltinShape::Sphere,
@@ -32,11 +31,11 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let mut select = None;
     let mut mute = None;
     let mut close = None;
-    let count = app.views.len();
-    for (i, doc) in app.views.iter().enumerate() {
+    let count = app.doc.views().len();
+    for (i, doc) in app.doc.views().iter().enumerate() {
         ui.horizontal(|ui| {
             if ui
-                .selectable_label(i == app.active, &doc.name)
+                .selectable_label(i == app.doc.active(), &doc.name)
                 .on_hover_text("Paint this view")
                 .clicked()
             {
@@ -70,7 +69,7 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
             app.queue(Action::SuggestView);
         }
     });
-    if let Some(doc) = app.active_view() {
+    if let Some(doc) = app.doc.active_view() {
         let mut rule = doc.unpainted;
         ui.horizontal(|ui| {
             let label = ui.label("Unpainted pixels");
@@ -90,7 +89,7 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 );
         });
         if rule != doc.unpainted {
-            app.set_unpainted(app.active, rule);
+            app.doc.set_unpainted(app.doc.active(), rule);
         }
         ui.horizontal(|ui| {
             if ui
@@ -112,14 +111,13 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
         .on_hover_text("The grey guide as a reference layer over the canvas (display only)");
     }
     if let Some(i) = select {
-        app.active = i;
-        app.canvas_view.invalidate();
+        app.doc.set_active(i);
     }
     if let Some((i, muted)) = mute {
-        app.set_muted(i, muted);
+        app.doc.set_muted(i, muted);
     }
     if let Some(i) = close {
-        app.remove_view(i);
+        app.doc.remove_view(i);
     }
 }
 
@@ -131,7 +129,7 @@ fn unpainted_label(rule: UnpaintedPixels) -> &'static str {
 }
 
 fn scene_setup(app: &mut BurnishApp, ui: &mut egui::Ui) {
-    let Some(doc) = app.active_view() else {
+    let Some(doc) = app.doc.active_view() else {
         return;
     };
     let original = doc.scene.clone();
@@ -259,16 +257,16 @@ fn scene_setup(app: &mut BurnishApp, ui: &mut egui::Ui) {
     // Rebuilding the geometry takes tens of milliseconds: wait until the drag ends.
     let dragging = ui.input(|i| i.pointer.any_down());
     if scene != original && !dragging {
-        let index = app.active;
-        if let Err(e) = app.set_scene(index, scene) {
+        let index = app.doc.active();
+        if let Err(e) = app.doc.set_scene(index, scene) {
             app.notify_error(e.to_string());
         }
     } else if scene != original {
         app.pending_scene = Some(scene);
     }
     if !dragging && let Some(scene) = app.pending_scene.take() {
-        let index = app.active;
-        if let Err(e) = app.set_scene(index, scene) {
+        let index = app.doc.active();
+        if let Err(e) = app.doc.set_scene(index, scene) {
             app.notify_error(e.to_string());
         }
     }
@@ -286,7 +284,7 @@ fn object_label(scene: &Scene) -> String {
 
 fn reconstruction_settings(app: &mut BurnishApp, ui: &mut egui::Ui) {
     ui.heading("Reconstruction");
-    let mut settings = app.basis_settings;
+    let mut settings = app.doc.basis_settings();
     egui::Grid::new("basis_grid").num_columns(2).show(ui, |ui| {
         ui.label("Components K");
         ui.add(
@@ -351,19 +349,8 @@ fn reconstruction_settings(app: &mut BurnishApp, ui: &mut egui::Ui) {
             _ => {}
         }
     });
-    if settings == app.basis_settings {
-        return;
-    }
-    if settings.policy != app.basis_settings.policy {
-        app.worker.send(Command::SetPolicy(settings.policy));
-    }
-    if settings.regularization != app.basis_settings.regularization {
-        app.worker
-            .send(Command::SetRegularization(settings.regularization));
-    }
     // A new K or database size restarts the basis job once the slider is released.
-    app.basis_settings = settings;
-    app.touch();
+    app.doc.set_basis_settings(settings);
 }
 
 fn regularization_kind(r: Regularization) -> &'static str {
@@ -372,15 +359,5 @@ fn regularization_kind(r: Regularization) -> &'static str {
         Regularization::Gcv => "gcv",
         Regularization::Prior { .. } => "prior",
         Regularization::Ridge { .. } => "ridge",
-    }
-}
-
-impl BurnishApp {
-    /// Loads or builds the basis the settings ask for; painting goes on meanwhile.
-    pub fn restart_basis(&mut self) {
-        let spec = super::basis_spec(&self.basis_settings);
-        if *self.basis_job.spec() != spec {
-            self.basis_job = BasisJob::start(spec, self.basis_cache().map(BasisCache::at));
-        }
     }
 }

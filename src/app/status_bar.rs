@@ -3,7 +3,7 @@
 use super::{BasisStatus, BurnishApp};
 
 pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
-    let stats = app.snapshot.stats;
+    let stats = app.doc.snapshot().stats;
     ui.horizontal_wrapped(|ui| {
         ui.label(format!("samples {}", stats.samples));
         ui.separator();
@@ -24,7 +24,7 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
         ui.separator();
         ui.label(format!("cond {:.2e}", stats.condition_number));
         ui.separator();
-        match app.basis_job.status() {
+        match app.doc.basis_status() {
             BasisStatus::Working { stage, fraction } => {
                 ui.label(format!("basis: {stage}"));
                 ui.add(
@@ -53,7 +53,7 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 ui.colored_label(ui.visuals().error_fg_color, format!("basis failed: {e}"));
             }
         }
-        if app.dirty {
+        if app.doc.is_dirty() {
             ui.separator();
             ui.label("unsaved");
         }

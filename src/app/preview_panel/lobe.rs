@@ -97,7 +97,7 @@ pub(super) fn lobe_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             .iter()
             .filter(|a| (**a - app.lobe_theta_deg).abs() > 0.5),
     );
-    let version = app.snapshot.version;
+    let version = app.doc.snapshot().version;
     let has_reference = app.preview_state.reference.is_some();
     let key = (
         version,

@@ -199,7 +199,7 @@ impl BurnishApp {
     /// What compare mode shows beside the reconstruction: the reference material if one is
     /// loaded, else the material the painting starts from.
     pub fn compared_material(&self) -> Option<(String, Arc<SymTable>)> {
-        match (&self.preview_state.reference, &self.start_material) {
+        match (&self.preview_state.reference, self.doc.start_material()) {
             (Some(r), _) => Some((format!("reference: {}", r.name), r.table.clone())),
             (None, Some(s)) => Some((format!("start: {}", s.name), s.table.clone())),
             (None, None) => None,
@@ -299,19 +299,14 @@ fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
                 .on_hover_text("A BRDF to compare with: an EXR table, a MERL binary or a .bsdf")
                 .clicked()
             {
-                super::menus::pick_open(
-                    app,
-                    "Load reference material",
-                    &["exr", "binary", "bsdf"],
-                    super::Action::LoadReference,
-                );
+                app.run_command(super::UiCommand::LoadReference, super::When::NextFrame);
             }
         }
     }
 }
 
 fn current_reconstruction(app: &BurnishApp) -> Option<Reconstruction> {
-    let snapshot = &app.snapshot;
+    let snapshot = &app.doc.snapshot();
     let basis = snapshot.basis.clone()?;
     let (n, k) = (snapshot.coefficients.len(), basis.components());
     (n == k || n == crate::solver::BANDS * k)

@@ -18,7 +18,7 @@ const OBJECTS: [PreviewObject; 6] = [
 
 fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let has_reference = app.preview_state.reference.is_some();
-    let can_compare = has_reference || app.start_material.is_some();
+    let can_compare = has_reference || app.doc.start_material().is_some();
     let comparing = &mut app.preview_state.compare;
     let frame = &mut app.preview;
     ui.horizontal_wrapped(|ui| {
@@ -226,7 +226,7 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         }
     }
     if response.double_clicked()
-        && let Some(doc) = app.active_view()
+        && let Some(doc) = app.doc.active_view()
     {
         let scene = doc.scene.clone();
         let previous = app.preview.clone();
@@ -259,10 +259,10 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     if app.preview.mode == PreviewMode::Table && app.preview_state.reference.is_none() {
         app.preview.mode = PreviewMode::Reconstruction;
     }
-    let snapshot = app.snapshot.clone();
+    let snapshot = app.doc.snapshot().clone();
     let view = app
-        .views
-        .get(app.active)
+        .doc
+        .active_view()
         .map(|doc| (doc.id, doc.scene.object.clone(), doc.object.clone()));
     let error = app.preview_state.feed(
         &snapshot,
@@ -289,8 +289,8 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     ));
     if let (Some((_, table)), Some(layout)) = (&compared, &compare_layout) {
         let view = app
-            .views
-            .get(app.active)
+            .doc
+            .active_view()
             .map(|doc| (doc.id, doc.scene.object.clone(), doc.object.clone()));
         let error = app.preview_state.feed_compare(
             view.as_ref().map(|(id, name, o)| (*id, name.as_str(), o)),

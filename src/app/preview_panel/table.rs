@@ -90,7 +90,7 @@ pub(super) fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let round = |v: f64| (v * 16.0).round() as i64;
     let key = (
         if source == TableSource::Reconstruction {
-            app.snapshot.version
+            app.doc.snapshot().version
         } else {
             0
         },
@@ -201,9 +201,9 @@ pub(super) fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             let [tl, pl, tv, pv] = bin_pair_angles(d_l, d_v);
             let rho = lookup(d_l, d_v);
             let pair = pair_index(d_l, d_v) as u32;
-            let state = if app.inconsistent.contains(&pair) {
+            let state = if app.doc.inconsistent().contains(&pair) {
                 " · inconsistent"
-            } else if app.observed.contains_key(&pair) {
+            } else if app.doc.observed().contains_key(&pair) {
                 " · observed"
             } else {
                 ""
@@ -268,7 +268,7 @@ fn table_overlay(
     };
     if o.observed {
         let marks = dilate(pair_marks(
-            app.observed.keys().copied(),
+            app.doc.observed().keys().copied(),
             window,
             pixels,
             pixels,
@@ -281,7 +281,7 @@ fn table_overlay(
     }
     if o.inconsistent {
         let marks = dilate(pair_marks(
-            app.inconsistent.iter().copied(),
+            app.doc.inconsistent().iter().copied(),
             window,
             pixels,
             pixels,

@@ -10,7 +10,7 @@ use crossbeam_channel::{Receiver, TryRecvError};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// What a finished job hands back to the UI thread.
+/// What a finished job hands back to the thread that polls the document.
 pub(super) enum Outcome {
     /// A file was written; the notice to show.
     Written(String),

@@ -1,4 +1,4 @@
-//! The views of a session as the app holds them: scene, geometry, guide and canvas.
+//! The views of a session: scene, geometry, guide and canvas.
 
 use crate::image_io::RgbImage;
 use crate::paint::{Canvas, PaintLayers, UnpaintedPixels};

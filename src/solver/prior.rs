@@ -155,12 +155,17 @@ impl PriorModel {
         rho + (1.0 - rho) * (-distance / self.band_length).exp()
     }
 
+    /// The correlation matrix of the sets, [`Self::band_correlation_between`] of each pair.
+    pub(super) fn band_correlation_matrix(&self) -> Mat<f64> {
+        let b = self.bands;
+        Mat::<f64>::from_fn(b, b, |i, j| self.band_correlation_between(i, j))
+    }
+
     /// The prior precision across the sets of one component, for unit variance: the inverse
     /// of the correlation matrix of [`Self::band_correlation_between`], row-major.
     pub(super) fn band_precision(&self) -> Vec<f64> {
         let b = self.bands;
-        let c = Mat::<f64>::from_fn(b, b, |i, j| self.band_correlation_between(i, j));
-        let inverse = match c.llt(Side::Lower) {
+        let inverse = match self.band_correlation_matrix().llt(Side::Lower) {
             Ok(llt) => llt.inverse(),
             // A correlation of this form is positive definite for ρ < 1; this guards rounding.
             Err(_) => Mat::<f64>::identity(b, b),

@@ -554,9 +554,7 @@ impl Solver {
             };
             let p0 = self.prior_precision_of(&model);
             let m = &n + &p0 * alpha;
-            let correlation = Mat::<f64>::from_fn(model.bands, model.bands, |i, j| {
-                model.band_correlation_between(i, j)
-            });
+            let correlation = model.band_correlation_matrix();
             let (Ok(m_llt), Ok(c_llt)) = (m.llt(Side::Lower), correlation.llt(Side::Lower)) else {
                 continue;
             };

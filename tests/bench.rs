@@ -9,6 +9,7 @@ use burnish::bench::held_out::{HELD_OUT_SEED, database_materials, hand_built_mat
 use burnish::bench::live::LiveOptions;
 use burnish::bench::next_view_trial::TrialOptions;
 use burnish::bench::oracle::OracleProjector;
+use burnish::bench::scaling::{ScalingOptions, run_scaling};
 use burnish::bench::{BenchOptions, Config, Paint, VIEWS, ldr_round_trip, run_bench};
 use burnish::materials::database::DatabaseSpec;
 use burnish::materials::tabulate;
@@ -292,6 +293,77 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
 }
 
 #[test]
+fn the_scaling_sweep_measures_every_size_and_k_and_plots_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = BasisCache::at(dir.path().join("cache"));
+    let base = BenchOptions {
+        database_materials: 1,
+        hand_built: 1,
+        paper: Config {
+            resolution: 64,
+            ..Config::paper()
+        },
+        live: LiveOptions {
+            dab_pixels: vec![500],
+            dab_components: vec![6],
+            dab_repeats: 5,
+            repeats: 2,
+        },
+        ..BenchOptions::quick(cache)
+    };
+    let options = ScalingOptions {
+        sizes: vec![12, 24],
+        components: vec![4, 6],
+        default_size: 24,
+        default_components: 6,
+        base,
+    };
+    assert_eq!(options.points(), vec![(12, 6), (24, 6), (24, 4)]);
+    let report = run_scaling(&options, &|line| eprintln!("{line}")).unwrap();
+    assert_eq!(report.points.len(), 3);
+    assert_eq!(report.held_out, 2);
+    for p in &report.points {
+        for value in [
+            p.oracle_mean,
+            p.oracle_median,
+            p.one_view_mean,
+            p.one_view_median,
+            p.one_view_log,
+            p.dab_p95_ms,
+            p.full_table_ms,
+        ] {
+            assert!(value.is_finite() && value > 0.0, "{p:?}");
+        }
+        // Relative RMSE is of order one even on a 12-material basis. (The oracle is the best
+        // fit in the mapped domain, not in relative RMSE: on so small a basis it can score
+        // worse than a reconstruction.)
+        assert!(p.one_view_mean < 2.0 && p.oracle_mean < 3.0, "{p:?}");
+        assert!(p.one_view_median <= p.one_view_mean * 2.0, "{p:?}");
+        assert!(p.dab_p95_ms < 1e3 && p.full_table_ms < 1e4, "{p:?}");
+        assert_eq!(p.basis, "built", "{p:?}");
+    }
+    let sizes: Vec<usize> = report.by_size().iter().map(|p| p.materials).collect();
+    assert_eq!(sizes, [12, 24]);
+    let ks: Vec<usize> = report
+        .by_components()
+        .iter()
+        .map(|p| p.components)
+        .collect();
+    assert_eq!(ks, [4, 6]);
+
+    let out = dir.path().join("out");
+    report.write_outputs(&out).unwrap();
+    let csv = std::fs::read_to_string(out.join("bench_scaling.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3);
+    let columns = csv.lines().next().unwrap().split(',').count();
+    assert!(csv.lines().all(|l| l.split(',').count() == columns));
+    let png = image::open(out.join("bench_scaling.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (1400, 700));
+    let md = std::fs::read_to_string(out.join("SCALING.md")).unwrap();
+    assert!(md.contains("| 12 | built") && md.contains("| 4 | "), "{md}");
+}
+
+#[test]
 fn the_bench_verb_is_on_the_command_line() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_burnish"))
         .args(["bench", "--help"])
@@ -299,7 +371,7 @@ fn the_bench_verb_is_on_the_command_line() {
         .unwrap();
     assert!(out.status.success());
     let help = String::from_utf8_lossy(&out.stdout);
-    for flag in ["--quick", "--json", "--out"] {
+    for flag in ["--quick", "--json", "--out", "--scaling", "--materials"] {
         assert!(help.contains(flag), "{flag} in {help}");
     }
 }

@@ -19,6 +19,7 @@ pub mod next_view_trial;
 pub mod oracle;
 pub mod plot;
 pub mod report;
+pub mod scaling;
 pub mod stability;
 
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};

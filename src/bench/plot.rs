@@ -9,7 +9,7 @@ use std::sync::Once;
 const WIDTH: u32 = 1400;
 const HEIGHT: u32 = 900;
 /// The font family name the plot's text asks for.
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// One method over every material: a point of the plot, and a row of the report's tables and
 /// figures (`bench::report` and `bench` re-export it).
@@ -29,7 +29,7 @@ pub struct Aggregate {
     pub mean_relative_rmse_lambert_ggx: f64,
 }
 
-fn register_font() -> Result<(), String> {
+pub(crate) fn register_font() -> Result<(), String> {
     static REGISTER: Once = Once::new();
     let mut result = Ok(());
     REGISTER.call_once(|| {
@@ -59,7 +59,7 @@ fn axis_colour(axis: &str) -> RGBColor {
 }
 
 /// Round values (1, 2, 5 × 10ⁿ) inside [lo, hi]: a log axis's ticks.
-fn ticks(lo: f64, hi: f64) -> Vec<f64> {
+pub(crate) fn ticks(lo: f64, hi: f64) -> Vec<f64> {
     let mut out = Vec::new();
     let mut decade = 10f64.powf(lo.log10().floor());
     while decade <= hi {
@@ -75,7 +75,7 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
 }
 
 /// A tick label with about two significant digits.
-fn tick(v: f64) -> String {
+pub(crate) fn tick(v: f64) -> String {
     let digits = (1 - v.abs().max(1e-12).log10().floor() as i32).max(0) as usize;
     format!("{v:.digits$}")
 }

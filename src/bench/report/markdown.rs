@@ -68,11 +68,18 @@ impl BenchReport {
         let _ = writeln!(md, "Reproduce with:\n\n```sh\n{command}\n```\n");
         let _ = writeln!(
             md,
-            "`burnish bench --quick --json` is the short run (one basis, K = {}, eight materials, \
-             the paper's configuration, two views and LDR paint; under five minutes on two cores \
-             including a cold basis build) whose last line is one JSON object with the figures \
-             below. The full run sweeps every axis; it builds the bases it lacks (K = 5 to 80).\n",
-            self.paper.components
+            "`burnish bench --quick --json` is the short run (one basis, K = {}, {} held-out \
+             materials, the paper's configuration, one and three views, a suggested second view \
+             and LDR paint; about a minute on two cores once the basis is cached, plus its cold \
+             build the first time) whose last line is one JSON object with the figures below. \
+             The full run sweeps every axis; it builds the bases it lacks (K = 5 to 80). \
+             `burnish bench --scaling` measures the error against the database's size and K.\n",
+            self.paper.components,
+            self.rows
+                .iter()
+                .map(|r| r.material.as_str())
+                .collect::<std::collections::BTreeSet<_>>()
+                .len()
         );
         self.goals_section(&mut md);
         self.error_section(&mut md);

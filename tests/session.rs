@@ -168,7 +168,7 @@ fn new_views_and_the_default_session_are_unpainted() {
     assert_eq!(session.views.len(), 1);
     assert_eq!(session.active_view, 0);
     assert_eq!(session.basis.components, 20);
-    assert_eq!(session.basis.materials, 300);
+    assert_eq!(session.basis.materials, 2000);
     assert_eq!(session.basis.regularization, Regularization::Auto);
     assert_eq!(session.basis.policy, Policy::Mean);
     let view = &session.views[0];

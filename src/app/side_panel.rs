@@ -294,7 +294,7 @@ fn reconstruction_settings(app: &mut BurnishApp, ui: &mut egui::Ui) {
         ui.label("Database");
         ui.add(
             egui::DragValue::new(&mut settings.materials)
-                .range(8..=2000)
+                .range(8..=BasisSpec::MAX_MATERIALS)
                 .suffix(" materials"),
         );
         ui.end_row();

@@ -176,8 +176,8 @@ impl Batch<'_> {
     }
 }
 
-/// Mapped tables held between passes up to this many bytes (the default 300-material
-/// database takes 4.7 GB): tabulating is most of a pass's cost, so a database that fits is
+/// Mapped tables held between passes up to this many bytes (a material takes 15.7 MB, so up
+/// to 400 materials; the default 2,000 are streamed): tabulating is most of a pass's cost, so a database that fits is
 /// tabulated once; a larger one is regenerated on every pass and memory stays flat.
 pub const KEEP_BUDGET_BYTES: usize = 6 << 30;
 

@@ -35,11 +35,14 @@ pub struct DatabaseSpec {
 }
 
 impl Default for DatabaseSpec {
-    /// The database users get.
+    /// The database users get: 2,000 materials, streamed through the basis build in about
+    /// 6.5 minutes on 2 cores and 1.4 GB. Against 300, the quick bench's held-out set goes
+    /// from 0.449 to 0.406 mean relative RMSE with one view and from 0.395 to 0.298 with
+    /// three, the oracle from 0.155 to 0.109 (`burnish bench --scaling`).
     fn default() -> Self {
         Self {
             seed: 0x0b0b_5eed,
-            size: 300,
+            size: 2000,
         }
     }
 }

@@ -1727,7 +1727,7 @@ fn suggest_next_view_adds_a_ranked_view_and_the_uncertainty_overlay_is_estimated
         let (sum, n) = pairs.fold((0.0f64, 0usize), |(s, n), p| (s + sigma[p] as f64, n + 1));
         sum / n as f64
     };
-    let observed = mean_of(&mut app.document().observed().keys().map(|&p| p as usize));
+    let observed = mean_of(&mut app.document().observed().keys().map(|p| p.index()));
     let all = mean_of(&mut (0..sigma.len()));
     assert!(observed < all, "observed bins {observed} against all {all}");
 }

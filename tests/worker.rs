@@ -346,7 +346,7 @@ fn analyses_answer_from_the_state_when_asked() {
                     .iter()
                     .filter_map(|&(pixel, _)| {
                         let p = gbuffer.at(pixel as usize)?;
-                        Some(burnish::table::pair_index(p.light_bin?, p.view_bin?))
+                        Some(burnish::table::pair_index(p.light_bin?, p.view_bin?).index())
                     })
                     .collect();
                 for (i, s) in std_dev.iter().enumerate() {

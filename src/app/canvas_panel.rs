@@ -375,7 +375,7 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
         if !p.is_lit() {
             continue;
         }
-        let pair = pair_index(l, v) as u32;
+        let pair = pair_index(l, v);
         if app.doc.inconsistent().contains(&pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(255, 40, 40, 150);
         } else if !app.doc.observed().contains_key(&pair) {

@@ -20,7 +20,7 @@ use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::paint::{BrushKind, BrushSettings, Canvas, CanvasChanges, PixelRect, UnpaintedPixels};
 use crate::scene::Scene;
 use crate::session::{Autosaver, BasisSettings, RecoveryInfo, StartMaterial};
-use crate::table::SymTable;
+use crate::table::{PairIndex, SymTable};
 use crate::worker::{Analysis, AnalysisKind, Command, Snapshot, ViewId, Worker};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -64,7 +64,7 @@ pub enum Event {
 #[derive(Default)]
 pub struct Polled {
     /// Sparse bins whose observed value changed (`None`: no longer observed), oldest first.
-    pub bins: Vec<(u32, Option<[f32; 3]>)>,
+    pub bins: Vec<(PairIndex, Option<[f32; 3]>)>,
     /// A new estimate of the table's uncertainty: per unordered pair, the standard deviation
     /// of ρ.
     pub uncertainty: Option<Arc<[f32]>>,
@@ -97,8 +97,8 @@ pub struct Document {
     /// The newest snapshot taken from the worker.
     snapshot: Arc<Snapshot>,
     /// Observed sparse bins and inconsistent ones, mirrored from the worker's updates.
-    observed: HashMap<u32, [f32; 3]>,
-    inconsistent: HashSet<u32>,
+    observed: HashMap<PairIndex, [f32; 3]>,
+    inconsistent: HashSet<PairIndex>,
     session_path: Option<PathBuf>,
     /// Whether anything changed since the last save.
     dirty: bool,
@@ -330,12 +330,12 @@ impl Document {
     }
 
     /// The observed sparse bins (pair index → ρ), as the worker last reported them.
-    pub fn observed(&self) -> &HashMap<u32, [f32; 3]> {
+    pub fn observed(&self) -> &HashMap<PairIndex, [f32; 3]> {
         &self.observed
     }
 
     /// The bins where views or strokes disagree, as the worker last reported them.
-    pub fn inconsistent(&self) -> &HashSet<u32> {
+    pub fn inconsistent(&self) -> &HashSet<PairIndex> {
         &self.inconsistent
     }
 

@@ -4,7 +4,7 @@
 //! A bin keeps its samples sorted by key and recomputes its value from them on every change:
 //! exact, order-independent (bit-identical to a batch build) and drift-free.
 
-use crate::table::{DirIndex, pair_index};
+use crate::table::{DirIndex, PairIndex, pair_index};
 use std::collections::{BTreeMap, HashMap};
 
 /// Identifies one sample: a pixel of a view.
@@ -72,7 +72,7 @@ pub const EXACT: Bounds = [Bound::Exact; 3];
 /// `bounds` says what `after` means per channel ([`EXACT`] when it is `None`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BinChange {
-    pub pair: u32,
+    pub pair: PairIndex,
     pub before: Option<[f64; 3]>,
     pub after: Option<[f64; 3]>,
     pub bounds: Bounds,
@@ -173,8 +173,8 @@ pub struct SparseTable {
     policy: Policy,
     /// Samples of one bin whose luminances differ by more than this factor are inconsistent.
     inconsistency_ratio: f64,
-    sample_bins: HashMap<SampleKey, u32>,
-    bins: BTreeMap<u32, Bin>,
+    sample_bins: HashMap<SampleKey, PairIndex>,
+    bins: BTreeMap<PairIndex, Bin>,
 }
 
 impl Default for SparseTable {
@@ -216,27 +216,27 @@ impl SparseTable {
     }
 
     /// The value of the bin of pair index `pair`, if observed.
-    pub fn bin_value(&self, pair: u32) -> Option<[f64; 3]> {
+    pub fn bin_value(&self, pair: PairIndex) -> Option<[f64; 3]> {
         self.bins.get(&pair).map(|b| b.value)
     }
 
     /// Observed bins and their values, in pair order.
-    pub fn observed(&self) -> impl Iterator<Item = (u32, [f64; 3])> + '_ {
+    pub fn observed(&self) -> impl Iterator<Item = (PairIndex, [f64; 3])> + '_ {
         self.bins.iter().map(|(&p, b)| (p, b.value))
     }
 
     /// Observed bins with their values and what each channel's value means, in pair order.
-    pub fn observed_bounded(&self) -> impl Iterator<Item = (u32, [f64; 3], Bounds)> + '_ {
+    pub fn observed_bounded(&self) -> impl Iterator<Item = (PairIndex, [f64; 3], Bounds)> + '_ {
         self.bins.iter().map(|(&p, b)| (p, b.value, b.bounds))
     }
 
     /// Number of samples in the bin of `pair`.
-    pub fn samples_in(&self, pair: u32) -> usize {
+    pub fn samples_in(&self, pair: PairIndex) -> usize {
         self.bins.get(&pair).map_or(0, |b| b.samples.len())
     }
 
     /// Bins whose samples disagree beyond the inconsistency factor, in pair order.
-    pub fn inconsistent_bins(&self) -> impl Iterator<Item = u32> + '_ {
+    pub fn inconsistent_bins(&self) -> impl Iterator<Item = PairIndex> + '_ {
         let ratio = self.inconsistency_ratio;
         self.bins
             .iter()
@@ -245,7 +245,7 @@ impl SparseTable {
     }
 
     /// Whether the bin's samples disagree beyond the inconsistency factor.
-    pub fn is_inconsistent(&self, pair: u32) -> bool {
+    pub fn is_inconsistent(&self, pair: PairIndex) -> bool {
         self.bins
             .get(&pair)
             .is_some_and(|b| b.samples.len() > 1 && b.spread() > self.inconsistency_ratio)
@@ -286,7 +286,7 @@ impl SparseTable {
         }
         // −0 is a valid zero; store +0 so no table ever carries a negative sign.
         let rho = rho.map(|c| if c == 0.0 { 0.0 } else { c });
-        let pair = pair_index(d_l, d_v) as u32;
+        let pair = pair_index(d_l, d_v);
         match self.sample_bins.insert(key, pair) {
             Some(old_pair) if old_pair != pair => {
                 self.edit_bin(old_pair, changes, |s| s.retain(|h| h.key != key));
@@ -346,7 +346,7 @@ impl SparseTable {
 
     fn edit_bin(
         &mut self,
-        pair: u32,
+        pair: PairIndex,
         changes: &mut Vec<BinChange>,
         edit: impl FnOnce(&mut Vec<Held>),
     ) {
@@ -388,7 +388,7 @@ mod tests {
             .unwrap();
         t.set_sample(key(2), 9, 3, [3.0, 3.0, 3.0], &mut ch)
             .unwrap();
-        let pair = pair_index(3, 9) as u32;
+        let pair = pair_index(3, 9);
         assert_eq!(t.bin_value(pair), Some([2.0; 3]));
         t.set_sample(key(2), 9, 3, [5.0, 5.0, 5.0], &mut ch)
             .unwrap();
@@ -433,6 +433,6 @@ mod tests {
         t.set_sample(key(0), 1, 2, [1.0; 3], &mut ch).unwrap();
         t.set_sample(key(0), 5, 6, [1.0; 3], &mut ch).unwrap();
         assert_eq!(t.observed_count(), 1);
-        assert_eq!(t.bin_value(pair_index(1, 2) as u32), None);
+        assert_eq!(t.bin_value(pair_index(1, 2)), None);
     }
 }

@@ -25,7 +25,7 @@ use crate::scene::{GBuffer, Object, Scene, render_table, sample_pixel};
 use crate::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
 };
-use crate::table::SymTable;
+use crate::table::{PairIndex, SymTable};
 use arc_swap::ArcSwap;
 use crossbeam_channel::{Receiver, Sender, TryRecvError, unbounded};
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -163,7 +163,7 @@ pub struct SolveStats {
 /// One sparse-table bin whose value or consistency changed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BinUpdate {
-    pub pair: u32,
+    pub pair: PairIndex,
     /// The bin's value, `None` once it holds no sample.
     pub value: Option<[f32; 3]>,
     pub inconsistent: bool,
@@ -269,7 +269,7 @@ struct WorkerState {
     sparse: SparseTable,
     solver: Option<Solver>,
     regularization: Regularization,
-    inconsistent: HashSet<u32>,
+    inconsistent: HashSet<PairIndex>,
     skipped: usize,
     version: u64,
     published: Arc<ArcSwap<Snapshot>>,
@@ -608,7 +608,8 @@ impl WorkerState {
 
     /// The bins a batch touched, each once with its final state, in pair order.
     fn bin_updates(&mut self, changes: &[BinChange]) -> Vec<BinUpdate> {
-        let touched: std::collections::BTreeSet<u32> = changes.iter().map(|c| c.pair).collect();
+        let touched: std::collections::BTreeSet<PairIndex> =
+            changes.iter().map(|c| c.pair).collect();
         touched
             .into_iter()
             .map(|pair| {
@@ -674,7 +675,7 @@ enum Job {
         base: Box<Scene>,
         object: Arc<Object>,
         candidates: usize,
-        painted: std::collections::BTreeSet<u32>,
+        painted: std::collections::BTreeSet<PairIndex>,
     },
     NoBasis(AnalysisKind),
 }

@@ -200,7 +200,7 @@ pub(super) fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             let (d_l, d_v) = (y as u16, x as u16);
             let [tl, pl, tv, pv] = bin_pair_angles(d_l, d_v);
             let rho = lookup(d_l, d_v);
-            let pair = pair_index(d_l, d_v) as u32;
+            let pair = pair_index(d_l, d_v);
             let state = if app.doc.inconsistent().contains(&pair) {
                 " · inconsistent"
             } else if app.doc.observed().contains_key(&pair) {

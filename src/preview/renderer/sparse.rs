@@ -2,7 +2,7 @@
 
 use super::PreviewRenderer;
 use crate::preview::PreviewError;
-use crate::table::PAIRS;
+use crate::table::PairIndex;
 use half::f16;
 
 /// Changed sparse pairs closer than this are uploaded as one run (8 bytes per pair).
@@ -18,14 +18,9 @@ impl PreviewRenderer {
     /// shows as 65504).
     pub fn update_sparse(
         &mut self,
-        changes: &[(u32, Option<[f32; 3]>)],
+        changes: &[(PairIndex, Option<[f32; 3]>)],
     ) -> Result<(), PreviewError> {
         for &(pair, value) in changes {
-            if pair as usize >= PAIRS {
-                return Err(PreviewError::Invalid(format!(
-                    "sparse bin pair {pair} is out of range (there are {PAIRS} pairs)"
-                )));
-            }
             if let Some(rgb) = value
                 && rgb.iter().any(|c| !(c.is_finite() && *c >= 0.0))
             {
@@ -36,7 +31,7 @@ impl PreviewRenderer {
         }
         let mut changed: Vec<usize> = Vec::with_capacity(changes.len());
         for &(pair, value) in changes {
-            let pair = pair as usize;
+            let pair = pair.index();
             let words = match value {
                 None => [0, 0],
                 Some([r, g, b]) => {

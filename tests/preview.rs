@@ -15,7 +15,7 @@ use burnish::scene::{
     GBuffer, Object, Projection, SHADOW, Scene, SurfacePoint, render_brdf, render_table,
     srgb_encode,
 };
-use burnish::solver::Reconstruction;
+use burnish::solver::{BinChange, EXACT, Reconstruction};
 use burnish::table::direction_index;
 use burnish::table::{PAIRS, PairIndex, SymTable, pair_index};
 use glam::DVec3;
@@ -237,6 +237,17 @@ fn coefficients(basis: &burnish::basis::Basis, seed: usize) -> Vec<[f64; 3]> {
             [0.9 * s * sign(0), 0.6 * s * sign(1), 0.3 * s * sign(2)]
         })
         .collect()
+}
+
+/// A sparse bin's change to `value` (`None`: no longer observed), as the worker reports it.
+fn sparse_bin(pair: PairIndex, value: Option<[f32; 3]>) -> BinChange {
+    BinChange {
+        pair,
+        before: None,
+        after: value.map(|v| v.map(f64::from)),
+        bounds: EXACT,
+        inconsistent: false,
+    }
 }
 
 /// Relative errors of `a` against `b` over every pair: (max, mean), with 10⁻⁴ added to the
@@ -468,10 +479,10 @@ fn sparse_mode_shows_the_updated_bins() {
     }
     assert_eq!(chosen.len(), 4);
     let value = |i: usize| [0.1 + 0.05 * i as f32, 0.2, 0.3 - 0.04 * i as f32];
-    let changes: Vec<(PairIndex, Option<[f32; 3]>)> = chosen
+    let changes: Vec<BinChange> = chosen
         .iter()
         .enumerate()
-        .map(|(i, &(_, pair))| (pair, Some(value(i))))
+        .map(|(i, &(_, pair))| sparse_bin(pair, Some(value(i))))
         .collect();
     r.update_sparse(&changes).unwrap();
     let image = render(&gpu, &mut r, &frame, SIDE as u32);
@@ -503,7 +514,7 @@ fn sparse_mode_shows_the_updated_bins() {
     assert!(observed >= chosen.len(), "{observed} observed pixels");
 
     // Forget the first bin: its pixels go back to the checker; the others stay.
-    r.update_sparse(&[(chosen[0].1, None)]).unwrap();
+    r.update_sparse(&[sparse_bin(chosen[0].1, None)]).unwrap();
     let image = render(&gpu, &mut r, &frame, SIDE as u32);
     let at = |image: &RgbImage, (x, y): (usize, usize)| image.get(x, y);
     assert!(UNOBSERVED.contains(&at(&image, chosen[0].0)));
@@ -629,8 +640,8 @@ fn errors_are_clear() {
     // An unphysical sparse bin: nothing of the batch is applied. (A pair index is in range
     // by construction.)
     let e = r.update_sparse(&[
-        (PairIndex::from_index(0), Some([0.1; 3])),
-        (PairIndex::from_index(5), Some([0.1, -1.0, 0.1])),
+        sparse_bin(PairIndex::from_index(0), Some([0.1; 3])),
+        sparse_bin(PairIndex::from_index(5), Some([0.1, -1.0, 0.1])),
     ]);
     assert!(matches!(e, Err(PreviewError::Invalid(m)) if m.contains("≥ 0")));
     frame.mode = PreviewMode::SparseOnly;
@@ -738,7 +749,7 @@ fn painting_reruns_only_the_gather() {
     assert_eq!(painted.pixels, fresh.pixels);
 
     // Sparse bins re-gather; the exposure too; neither sets the geometry up again.
-    r.update_sparse(&[(PairIndex::from_index(17), Some([0.1; 3]))])
+    r.update_sparse(&[sparse_bin(PairIndex::from_index(17), Some([0.1; 3]))])
         .unwrap();
     render(&gpu, &mut r, &frame, 128);
     frame.exposure_stops = 1.0;

@@ -316,12 +316,7 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
         let mut solver = Solver::new(basis.clone(), Regularization::Auto);
         solver.apply_all(&lit);
         for &pair in &dark {
-            solver.apply(&BinChange {
-                pair,
-                before: None,
-                after: Some([value; 3]),
-                bounds: [bound; 3],
-            });
+            solver.apply(&BinChange::observed(pair, [value; 3], [bound; 3]));
         }
         solver.solve().coefficients
     };
@@ -382,12 +377,7 @@ fn the_band_correlation_tightens_only_for_agreeing_bins_spread_over_theta_d() {
         let mut solver = Solver::with_model(basis.clone(), Regularization::Auto, model);
         for &pair in pairs {
             let rho = truth.eval_pair(pair).map(|v| v as f64);
-            solver.apply(&BinChange {
-                pair,
-                before: None,
-                after: Some(rho),
-                bounds: burnish::solver::EXACT,
-            });
+            solver.apply(&BinChange::observed(pair, rho, burnish::solver::EXACT));
         }
         solver.solve().band_correlation
     };

@@ -376,9 +376,9 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
             continue;
         }
         let pair = pair_index(l, v);
-        if app.doc.inconsistent().contains(&pair) {
+        if app.doc.is_inconsistent(pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(255, 40, 40, 150);
-        } else if !app.doc.observed().contains_key(&pair) {
+        } else if !app.doc.is_observed(pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(40, 120, 255, 70);
         }
     }

@@ -68,14 +68,50 @@ pub type Bounds = [Bound; 3];
 /// Every channel exact: what HDR paint and the app's canvas give.
 pub const EXACT: Bounds = [Bound::Exact; 3];
 
-/// A bin whose value changed: `before`/`after` are `None` when the bin was/is empty;
-/// `bounds` says what `after` means per channel ([`EXACT`] when it is `None`).
+/// A bin whose value, bounds or consistency changed: `before`/`after` are `None` when the
+/// bin was/is empty; `bounds` says what `after` means per channel ([`EXACT`] when it is
+/// `None`). The one type of a bin's change along the whole flow: the sparse table emits it,
+/// the solver applies it, the worker coalesces a batch's changes and forwards them to the
+/// UI, and the preview converts `after` to f32 only when it uploads it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BinChange {
     pub pair: PairIndex,
     pub before: Option<[f64; 3]>,
     pub after: Option<[f64; 3]>,
     pub bounds: Bounds,
+    /// Whether the bin's samples now disagree beyond the inconsistency factor.
+    pub inconsistent: bool,
+}
+
+impl BinChange {
+    /// A change from nothing to `after` (a bin as a new solver or a test first sees it).
+    pub fn observed(pair: PairIndex, after: [f64; 3], bounds: Bounds) -> Self {
+        Self {
+            pair,
+            before: None,
+            after: Some(after),
+            bounds,
+            inconsistent: false,
+        }
+    }
+
+    /// Each pair of `changes` once, in pair order: the first change's `before` with the
+    /// last one's state.
+    pub fn coalesce(changes: &[BinChange]) -> Vec<BinChange> {
+        let mut merged = changes.to_vec();
+        // Stable: a pair's changes keep their order.
+        merged.sort_by_key(|c| c.pair);
+        merged.dedup_by(|later, first| {
+            if later.pair != first.pair {
+                return false;
+            }
+            first.after = later.after;
+            first.bounds = later.bounds;
+            first.inconsistent = later.inconsistent;
+            true
+        });
+        merged
+    }
 }
 
 /// Why a sample was not taken.
@@ -101,6 +137,8 @@ struct Bin {
     samples: Vec<Held>,
     value: [f64; 3],
     bounds: Bounds,
+    /// Kept with the value, so that counting and reporting inconsistent bins never rescans.
+    inconsistent: bool,
 }
 
 fn luminance(rgb: &[f64; 3]) -> f64 {
@@ -154,6 +192,11 @@ impl Bin {
         best
     }
 
+    /// Whether the samples disagree beyond `ratio` (two at least).
+    fn disagrees(&self, ratio: f64) -> bool {
+        self.samples.len() > 1 && self.spread() > ratio
+    }
+
     /// Ratio of brightest to darkest sample luminance (with a small floor).
     fn spread(&self) -> f64 {
         const FLOOR: f64 = 1e-3;
@@ -175,6 +218,8 @@ pub struct SparseTable {
     inconsistency_ratio: f64,
     sample_bins: HashMap<SampleKey, PairIndex>,
     bins: BTreeMap<PairIndex, Bin>,
+    /// Bins whose `inconsistent` is set.
+    inconsistent: usize,
 }
 
 impl Default for SparseTable {
@@ -193,6 +238,7 @@ impl SparseTable {
             inconsistency_ratio: Self::DEFAULT_INCONSISTENCY_RATIO,
             sample_bins: HashMap::new(),
             bins: BTreeMap::new(),
+            inconsistent: 0,
         }
     }
 
@@ -200,9 +246,27 @@ impl SparseTable {
         self.policy
     }
 
-    /// Sets the inconsistency factor (> 1).
-    pub fn set_inconsistency_ratio(&mut self, ratio: f64) {
+    /// Sets the inconsistency factor (> 1); bins whose consistency flips are reported.
+    pub fn set_inconsistency_ratio(&mut self, ratio: f64, changes: &mut Vec<BinChange>) {
         self.inconsistency_ratio = ratio.max(1.0);
+        for (&pair, bin) in self.bins.iter_mut() {
+            let inconsistent = bin.disagrees(self.inconsistency_ratio);
+            if inconsistent != bin.inconsistent {
+                bin.inconsistent = inconsistent;
+                if inconsistent {
+                    self.inconsistent += 1;
+                } else {
+                    self.inconsistent -= 1;
+                }
+                changes.push(BinChange {
+                    pair,
+                    before: Some(bin.value),
+                    after: Some(bin.value),
+                    bounds: bin.bounds,
+                    inconsistent,
+                });
+            }
+        }
     }
 
     /// Number of samples held.
@@ -237,22 +301,19 @@ impl SparseTable {
 
     /// Bins whose samples disagree beyond the inconsistency factor, in pair order.
     pub fn inconsistent_bins(&self) -> impl Iterator<Item = PairIndex> + '_ {
-        let ratio = self.inconsistency_ratio;
         self.bins
             .iter()
-            .filter(move |(_, b)| b.samples.len() > 1 && b.spread() > ratio)
+            .filter(|(_, b)| b.inconsistent)
             .map(|(&p, _)| p)
     }
 
     /// Whether the bin's samples disagree beyond the inconsistency factor.
     pub fn is_inconsistent(&self, pair: PairIndex) -> bool {
-        self.bins
-            .get(&pair)
-            .is_some_and(|b| b.samples.len() > 1 && b.spread() > self.inconsistency_ratio)
+        self.bins.get(&pair).is_some_and(|b| b.inconsistent)
     }
 
     pub fn inconsistent_count(&self) -> usize {
-        self.inconsistent_bins().count()
+        self.inconsistent
     }
 
     /// Adds or replaces the sample `key` with value `rho` in bin (d_l, d_v).
@@ -338,6 +399,7 @@ impl SparseTable {
                     before: Some(bin.value),
                     after: Some(value),
                     bounds: bin.bounds,
+                    inconsistent: bin.inconsistent,
                 });
                 bin.value = value;
             }
@@ -352,21 +414,30 @@ impl SparseTable {
     ) {
         let bin = self.bins.entry(pair).or_default();
         let before = (!bin.samples.is_empty()).then_some((bin.value, bin.bounds));
+        let was_inconsistent = bin.inconsistent;
         edit(&mut bin.samples);
-        let after = if bin.samples.is_empty() {
+        let (after, inconsistent) = if bin.samples.is_empty() {
             self.bins.remove(&pair);
-            None
+            (None, false)
         } else {
             bin.value = bin.aggregate(self.policy);
             bin.bounds = bin.aggregate_bounds();
-            Some((bin.value, bin.bounds))
+            bin.inconsistent = bin.disagrees(self.inconsistency_ratio);
+            (Some((bin.value, bin.bounds)), bin.inconsistent)
         };
-        if before != after {
+        match (was_inconsistent, inconsistent) {
+            (false, true) => self.inconsistent += 1,
+            (true, false) => self.inconsistent -= 1,
+            _ => {}
+        }
+        // A flip of consistency alone is reported too: the UI marks such bins.
+        if before != after || was_inconsistent != inconsistent {
             changes.push(BinChange {
                 pair,
                 before: before.map(|(v, _)| v),
                 after: after.map(|(v, _)| v),
                 bounds: after.map_or(EXACT, |(_, b)| b),
+                inconsistent,
             });
         }
     }
@@ -424,6 +495,26 @@ mod tests {
         );
         assert!(ch.is_empty());
         assert_eq!(t.sample_count(), 0);
+    }
+
+    #[test]
+    fn consistency_is_reported_even_when_the_value_stays() {
+        let mut t = SparseTable::new(Policy::Min);
+        let mut ch = Vec::new();
+        t.set_sample(key(1), 3, 9, [1.0; 3], &mut ch).unwrap();
+        // Under Min a brighter sample leaves the value, but the bin now disagrees.
+        t.set_sample(key(2), 3, 9, [5.0; 3], &mut ch).unwrap();
+        assert_eq!(t.inconsistent_count(), 1);
+        let last = ch.last().unwrap();
+        assert_eq!((last.before, last.after), (Some([1.0; 3]), Some([1.0; 3])));
+        assert!(last.inconsistent);
+        let merged = BinChange::coalesce(&ch);
+        assert_eq!(merged.len(), 1);
+        assert_eq!((merged[0].before, merged[0].after), (None, Some([1.0; 3])));
+        assert!(merged[0].inconsistent);
+        t.remove_sample(key(2), &mut ch);
+        assert_eq!(t.inconsistent_count(), 0);
+        assert!(!ch.last().unwrap().inconsistent);
     }
 
     #[test]

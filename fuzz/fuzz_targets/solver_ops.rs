@@ -91,7 +91,7 @@ fn rejection(rho: [f64; 3]) -> Option<SampleRejected> {
     }
 }
 
-fn bins(table: &SparseTable) -> Vec<(u32, [u64; 3])> {
+fn bins(table: &SparseTable) -> Vec<(PairIndex, [u64; 3])> {
     table
         .observed()
         .map(|(p, v)| (p, v.map(f64::to_bits)))

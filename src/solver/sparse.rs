@@ -84,7 +84,8 @@ pub struct BinChange {
 }
 
 impl BinChange {
-    /// A change from nothing to `after` (a bin as a new solver or a test first sees it).
+    /// A change from nothing to `after`, marked consistent: a bin as a new solver (which
+    /// reads no consistency) or a test first sees it.
     pub fn observed(pair: PairIndex, after: [f64; 3], bounds: Bounds) -> Self {
         Self {
             pair,

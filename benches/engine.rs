@@ -8,7 +8,7 @@ mod common;
 
 use burnish::basis::{Basis, BasisCache, BasisSpec};
 use burnish::solver::{Reconstruction, Regularization, SampleKey, Solver, SparseTable};
-use burnish::table::{DIRECTIONS, DirIndex};
+use burnish::table::{DIRECTIONS, DirIndex, PairIndex};
 use common::{check_basis, check_basis_spec, test_mode};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::collections::BTreeMap;
@@ -91,7 +91,7 @@ fn engine(c: &mut Criterion) {
         c.bench_function(&format!("full_table_from_coefficients_k{k}"), |b| {
             b.iter(|| black_box(recon.materialize()))
         });
-        let pairs: Vec<u32> = (0..262_144u32).map(|i| i * 5).collect();
+        let pairs: Vec<PairIndex> = PairIndex::all().step_by(5).take(262_144).collect();
         let mut out = Vec::new();
         c.bench_function(&format!("lazy_eval_262144_entries_k{k}"), |b| {
             b.iter(|| {

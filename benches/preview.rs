@@ -15,7 +15,8 @@ use burnish::preview::{
     material_test_object,
 };
 use burnish::scene::{BuiltinShape, Object};
-use burnish::table::PAIRS;
+use burnish::solver::{BinChange, EXACT};
+use burnish::table::{PAIRS, PairIndex};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::time::Duration;
 
@@ -190,8 +191,11 @@ fn previews(c: &mut Criterion) {
         },
     );
     // A dab's worth of sparse bins: 2,000 scattered pairs.
-    let changes: Vec<(u32, Option<[f32; 3]>)> = (0..2000u32)
-        .map(|i| ((i * 656_503) % PAIRS as u32, Some([0.2, 0.3, 0.4])))
+    let changes: Vec<BinChange> = (0..2000)
+        .map(|i| {
+            let pair = PairIndex::from_index((i * 656_503) % PAIRS);
+            BinChange::observed(pair, [0.2, 0.3, 0.4], EXACT)
+        })
         .collect();
     group.bench_function("update_sparse: 2,000 scattered pairs", |b| {
         b.iter(|| {

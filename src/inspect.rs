@@ -3,7 +3,9 @@
 //! overlays. Everything takes the BRDF as a lookup `ρ(d_l, d_v)`, so that the reconstruction
 //! and a reference table are shown alike.
 
-use crate::table::{DIRECTIONS, DirIndex, Rgb, bin_angles, direction_index, pair_directions};
+use crate::table::{
+    DIRECTIONS, DirIndex, PairIndex, Rgb, bin_angles, direction_index, pair_directions,
+};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -302,14 +304,14 @@ pub fn viridis(t: f32) -> [f32; 3] {
 /// Which pixels of a `width × height` image of `window` hold any of `pairs` (each pair is
 /// drawn at both of its (light, view) orders: the table is reciprocal).
 pub fn pair_marks(
-    pairs: impl Iterator<Item = u32>,
+    pairs: impl Iterator<Item = PairIndex>,
     window: TableWindow,
     width: usize,
     height: usize,
 ) -> Vec<bool> {
     let mut mask = vec![false; width * height];
     for pair in pairs {
-        let (a, b) = pair_directions(pair as usize);
+        let (a, b) = pair_directions(pair);
         for (l, v) in [(a, b), (b, a)] {
             if let Some((x, y)) = window.pixel_of(l, v, width, height) {
                 mask[y * width + x] = true;
@@ -338,7 +340,7 @@ pub fn relative_uncertainty(
             .into_par_iter()
             .map(|i| {
                 let (d_l, d_v) = window.bins_at(i % width, i / width, width, height);
-                let sigma = std_dev[crate::table::pair_index(d_l, d_v)];
+                let sigma = std_dev[crate::table::pair_index(d_l, d_v).index()];
                 let value = luminance(rho(d_l, d_v));
                 if sigma.is_finite() {
                     (sigma as f64 / (value + 1e-4)).clamp(0.0, 1.0) as f32
@@ -408,7 +410,7 @@ mod tests {
 
     #[test]
     fn marks_show_both_orders_of_a_pair() {
-        let pair = pair_index(30, 900) as u32;
+        let pair = pair_index(30, 900);
         let mask = pair_marks([pair].into_iter(), TableWindow::FULL, 162, 162);
         assert_eq!(mask.iter().filter(|&&m| m).count(), 2);
         assert!(mask[3 * 162 + 90] && mask[90 * 162 + 3]);
@@ -421,7 +423,7 @@ mod tests {
         assert!(relative_uncertainty(&[0.1; 10], &rho, window, 8, 8).is_none());
         let mut sigma = vec![0.0f32; PAIRS];
         // One uncertain pair: the light bin 0 with the view bin 0, at the top-left pixel.
-        sigma[pair_index(0, 0)] = 0.25;
+        sigma[pair_index(0, 0).index()] = 0.25;
         let overlay = relative_uncertainty(&sigma, &rho, window, 1620, 1620).unwrap();
         assert!((overlay[0] - 0.25 / 0.5001).abs() < 1e-4, "{}", overlay[0]);
         assert_eq!(overlay[1], 0.0);

@@ -44,7 +44,10 @@ pub fn table_errors(truth: &SymTable, estimate: &SymTable) -> TableErrors {
         let cc = cos[t_l] * cos[t_v];
         let c = cos_weight_polar(t_l, t_v);
         for ch in 0..3 {
-            let (t, e) = (t_vals[pair][ch] as f64, e_vals[pair][ch] as f64);
+            let (t, e) = (
+                t_vals[pair.index()][ch] as f64,
+                e_vals[pair.index()][ch] as f64,
+            );
             err2 += w * ((e - t) * cc).powi(2);
             ref2 += w * (t * cc).powi(2);
             log2 += w * (((e * c + MAP_EPSILON) / (t * c + MAP_EPSILON)).ln()).powi(2);

@@ -12,7 +12,7 @@
 
 use crate::scene::{CameraSettings, GBuffer, LightSettings, MIN_COS, Object, Scene};
 use crate::solver::{Posterior, Reconstruction, Solver};
-use crate::table::{PAIRS, cos_theta_centre, pair_directions, pair_index};
+use crate::table::{PairIndex, cos_theta_centre, pair_directions, pair_index};
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Side};
 use rayon::prelude::*;
@@ -68,18 +68,18 @@ pub fn candidate_scenes(base: &Scene, count: usize) -> Vec<Scene> {
 }
 
 /// The bins a view of `object` under `scene` observes (lit, usable pixels), in pair order.
-pub fn observed_pairs(scene: &Scene, object: &Object, resolution: u32) -> Vec<u32> {
+pub fn observed_pairs(scene: &Scene, object: &Object, resolution: u32) -> Vec<PairIndex> {
     let scene = Scene {
         resolution,
         ..scene.clone()
     };
     let gbuffer = GBuffer::build(&scene, object);
-    let pairs: BTreeSet<u32> = gbuffer
+    let pairs: BTreeSet<PairIndex> = gbuffer
         .pixels()
         .iter()
         .flatten()
         .filter(|p| p.is_lit() && p.cos_light() as f64 >= MIN_COS && p.cos_view() as f64 >= MIN_COS)
-        .filter_map(|p| Some(pair_index(p.light_bin?, p.view_bin?) as u32))
+        .filter_map(|p| Some(pair_index(p.light_bin?, p.view_bin?)))
         .collect();
     pairs.into_iter().collect()
 }
@@ -89,7 +89,7 @@ pub fn observed_pairs(scene: &Scene, object: &Object, resolution: u32) -> Vec<u3
 fn importance(posterior: &Posterior, reconstruction: &Reconstruction) -> Mat<f64> {
     let basis = reconstruction.basis();
     let d = posterior.precision().nrows();
-    let sampled: Vec<usize> = (0..PAIRS).step_by(IMPORTANCE_STRIDE).collect();
+    let sampled: Vec<PairIndex> = PairIndex::all().step_by(IMPORTANCE_STRIDE).collect();
     let partials: Vec<Mat<f64>> = sampled
         .par_chunks(2048)
         .map(|chunk| {
@@ -97,11 +97,11 @@ fn importance(posterior: &Posterior, reconstruction: &Reconstruction) -> Mat<f64
             for &pair in chunk {
                 let (lo, hi) = pair_directions(pair);
                 let cc = cos_theta_centre(lo) * cos_theta_centre(hi);
-                let c = crate::basis::cos_weight(pair);
+                let c = crate::basis::cos_weight(pair.index());
                 let rho = reconstruction.eval_pair(pair);
                 let luminance = 0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2];
                 let slope = (luminance as f64 * c + crate::basis::MAP_EPSILON) / c * cc;
-                let psi = posterior.design_row(pair as u32, basis.row(pair));
+                let psi = posterior.design_row(pair, basis.row(pair.index()));
                 let nonzero: Vec<usize> = (0..d).filter(|&i| psi[i] != 0.0).collect();
                 let weight = slope * slope * crate::table::pair_multiplicity(pair);
                 for &i in &nonzero {
@@ -143,7 +143,7 @@ pub fn rank_views(
     solver: &Solver,
     object: &Object,
     candidates: &[Scene],
-    painted: &BTreeSet<u32>,
+    painted: &BTreeSet<PairIndex>,
 ) -> Vec<RankedView> {
     let solution = solver.solve();
     let basis = solver.basis().clone();
@@ -159,9 +159,9 @@ pub fn rank_views(
             let pairs = observed_pairs(scene, object, CANDIDATE_RESOLUTION);
             let mut precision = posterior.precision().clone();
             for &pair in &pairs {
-                let rho = reconstruction.eval_pair(pair as usize).map(f64::from);
+                let rho = reconstruction.eval_pair(pair).map(f64::from);
                 let w = solver.prospective_weight(pair, rho) / alpha;
-                let psi = posterior.design_row(pair, basis.row(pair as usize));
+                let psi = posterior.design_row(pair, basis.row(pair.index()));
                 let nonzero: Vec<usize> = (0..d).filter(|&i| psi[i] != 0.0).collect();
                 for &i in &nonzero {
                     for &j in &nonzero {

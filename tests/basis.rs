@@ -2,7 +2,7 @@
 
 use burnish::basis::{BasisCache, BasisSpec, CacheOutcome, build_basis};
 use burnish::materials::database::DatabaseSpec;
-use burnish::table::{PAIRS, pair_multiplicity};
+use burnish::table::{PairIndex, pair_multiplicity};
 
 fn tiny_spec() -> BasisSpec {
     BasisSpec {
@@ -19,9 +19,9 @@ fn components_are_orthonormal_over_the_full_table_and_sorted() {
     let k = basis.components();
     assert_eq!(k, 4);
     let mut gram = vec![0f64; k * k];
-    for p in 0..PAIRS {
+    for p in PairIndex::all() {
         let w = pair_multiplicity(p);
-        let row = basis.row(p);
+        let row = basis.row(p.index());
         for i in 0..k {
             for j in 0..k {
                 gram[i * k + j] += w * row[i] as f64 * row[j] as f64;

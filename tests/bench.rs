@@ -16,7 +16,7 @@ use burnish::materials::tabulate;
 use burnish::metrics::table_errors;
 use burnish::scene::{GBuffer, Object, render_brdf, render_table, samples_from_image};
 use burnish::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
-use burnish::table::{PAIRS, SymTable, pair_multiplicity};
+use burnish::table::{PAIRS, PairIndex, SymTable, pair_multiplicity};
 use common::small_basis;
 
 /// The sparse table of `views` views of the default sphere at `resolution`, painted with
@@ -56,7 +56,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
     let truth = tabulate(&truth_model);
     // Rendered from the table, each sample is exactly the bin-centre value: noise-free.
     let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
-    let bins: Vec<(u32, [f64; 3])> = table.observed().collect();
+    let bins: Vec<(PairIndex, [f64; 3])> = table.observed().collect();
     assert!(bins.len() > 2000, "{} bins", bins.len());
     let fit = fit_lambert_ggx(&bins, &FitOptions::default());
     println!("{fit:?}");
@@ -93,7 +93,7 @@ fn mapped_residual(basis: &burnish::basis::Basis, truth: &SymTable, x: &[[f64; 3
         for c in 0..3 {
             let fit: f64 = row.iter().zip(x).map(|(&u, xk)| u as f64 * xk[c]).sum();
             let y = basis.centred_observation(pair, truth.pairs()[pair][c] as f64);
-            sum += pair_multiplicity(pair) * (fit - y).powi(2);
+            sum += pair_multiplicity(PairIndex::from_index(pair)) * (fit - y).powi(2);
         }
     }
     sum

@@ -15,9 +15,9 @@ use burnish::scene::{
     GBuffer, Object, Projection, SHADOW, Scene, SurfacePoint, render_brdf, render_table,
     srgb_encode,
 };
-use burnish::solver::Reconstruction;
+use burnish::solver::{BinChange, EXACT, Reconstruction};
 use burnish::table::direction_index;
-use burnish::table::{PAIRS, SymTable, pair_index};
+use burnish::table::{PAIRS, PairIndex, SymTable, pair_index};
 use glam::DVec3;
 use std::path::Path;
 
@@ -239,6 +239,17 @@ fn coefficients(basis: &burnish::basis::Basis, seed: usize) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// A sparse bin's change to `value` (`None`: no longer observed), as the worker reports it.
+fn sparse_bin(pair: PairIndex, value: Option<[f32; 3]>) -> BinChange {
+    BinChange {
+        pair,
+        before: None,
+        after: value.map(|v| v.map(f64::from)),
+        bounds: EXACT,
+        inconsistent: false,
+    }
+}
+
 /// Relative errors of `a` against `b` over every pair: (max, mean), with 10⁻⁴ added to the
 /// denominator for black entries.
 fn table_errors(a: &SymTable, b: &SymTable) -> (f64, f64) {
@@ -445,7 +456,7 @@ fn sparse_mode_shows_the_updated_bins() {
     let mut frame = PreviewFrame::from_scene(&scene);
     frame.mode = PreviewMode::SparseOnly;
 
-    let pair_of = |p: &SurfacePoint| Some(pair_index(p.light_bin?, p.view_bin?) as u32);
+    let pair_of = |p: &SurfacePoint| Some(pair_index(p.light_bin?, p.view_bin?));
     // The pairs of four lit pixels spread over the lit part of the sphere, away from bin edges.
     let inside: Vec<(usize, usize)> = (0..SIDE * SIDE)
         .map(|i| (i % SIDE, i / SIDE))
@@ -458,7 +469,7 @@ fn sparse_mode_shows_the_updated_bins() {
         "{} lit pixels inside bins",
         inside.len()
     );
-    let mut chosen: Vec<((usize, usize), u32)> = Vec::new();
+    let mut chosen: Vec<((usize, usize), PairIndex)> = Vec::new();
     for quarter in 0..4 {
         let found = inside[(2 * quarter + 1) * inside.len() / 8];
         let pair = pair_of(gbuffer.get(found.0, found.1).unwrap()).unwrap();
@@ -468,10 +479,10 @@ fn sparse_mode_shows_the_updated_bins() {
     }
     assert_eq!(chosen.len(), 4);
     let value = |i: usize| [0.1 + 0.05 * i as f32, 0.2, 0.3 - 0.04 * i as f32];
-    let changes: Vec<(u32, Option<[f32; 3]>)> = chosen
+    let changes: Vec<BinChange> = chosen
         .iter()
         .enumerate()
-        .map(|(i, &(_, pair))| (pair, Some(value(i))))
+        .map(|(i, &(_, pair))| sparse_bin(pair, Some(value(i))))
         .collect();
     r.update_sparse(&changes).unwrap();
     let image = render(&gpu, &mut r, &frame, SIDE as u32);
@@ -503,7 +514,7 @@ fn sparse_mode_shows_the_updated_bins() {
     assert!(observed >= chosen.len(), "{observed} observed pixels");
 
     // Forget the first bin: its pixels go back to the checker; the others stay.
-    r.update_sparse(&[(chosen[0].1, None)]).unwrap();
+    r.update_sparse(&[sparse_bin(chosen[0].1, None)]).unwrap();
     let image = render(&gpu, &mut r, &frame, SIDE as u32);
     let at = |image: &RgbImage, (x, y): (usize, usize)| image.get(x, y);
     assert!(UNOBSERVED.contains(&at(&image, chosen[0].0)));
@@ -626,10 +637,12 @@ fn errors_are_clear() {
             .is_ok()
     );
 
-    // Sparse bins out of range or unphysical: nothing of the batch is applied.
-    let e = r.update_sparse(&[(0, Some([0.1; 3])), (PAIRS as u32, Some([0.1; 3]))]);
-    assert!(matches!(e, Err(PreviewError::Invalid(m)) if m.contains("out of range")));
-    let e = r.update_sparse(&[(5, Some([0.1, -1.0, 0.1]))]);
+    // An unphysical sparse bin: nothing of the batch is applied. (A pair index is in range
+    // by construction.)
+    let e = r.update_sparse(&[
+        sparse_bin(PairIndex::from_index(0), Some([0.1; 3])),
+        sparse_bin(PairIndex::from_index(5), Some([0.1, -1.0, 0.1])),
+    ]);
     assert!(matches!(e, Err(PreviewError::Invalid(m)) if m.contains("≥ 0")));
     frame.mode = PreviewMode::SparseOnly;
     let image = r
@@ -736,7 +749,8 @@ fn painting_reruns_only_the_gather() {
     assert_eq!(painted.pixels, fresh.pixels);
 
     // Sparse bins re-gather; the exposure too; neither sets the geometry up again.
-    r.update_sparse(&[(17, Some([0.1; 3]))]).unwrap();
+    r.update_sparse(&[sparse_bin(PairIndex::from_index(17), Some([0.1; 3]))])
+        .unwrap();
     render(&gpu, &mut r, &frame, 128);
     frame.exposure_stops = 1.0;
     let brighter = render(&gpu, &mut r, &frame, 128);

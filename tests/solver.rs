@@ -6,7 +6,7 @@ use burnish::materials::Brdf;
 use burnish::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
 };
-use burnish::table::{DIRECTIONS, DirIndex};
+use burnish::table::{DIRECTIONS, DirIndex, PairIndex};
 use common::{small_basis, sphere_view_samples};
 use glam::DVec3;
 use std::collections::HashMap;
@@ -279,11 +279,11 @@ fn lazy_evaluation_equals_the_materialised_table() {
     let samples = sphere_view_samples(&Constant([0.3, 0.1, 0.05]), 0, 45.0, 30.0, 48);
     let (recon, _) = solve_with(&samples, Regularization::Auto);
     let full = recon.materialize();
-    let pairs: Vec<u32> = (0..burnish::table::PAIRS as u32).step_by(97).collect();
+    let pairs: Vec<PairIndex> = PairIndex::all().step_by(97).collect();
     let mut lazy = Vec::new();
     recon.eval_pairs(&pairs, &mut lazy);
     for (&p, value) in pairs.iter().zip(&lazy) {
-        assert_eq!(*value, full.pairs()[p as usize], "pair {p}");
+        assert_eq!(*value, full.pairs()[p.index()], "pair {p}");
     }
     for (d_l, d_v) in [(0, 0), (3, 1500), (1500, 3), (1619, 1619)] {
         assert_eq!(recon.eval(d_l, d_v), full.get(d_l, d_v));
@@ -309,19 +309,14 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
         table.set_sample(key, d_l, d_v, rho, &mut lit).unwrap();
     }
     // Black pixels in bins the view did not reach (a grazing light's dark side).
-    let dark: Vec<u32> = (0..40)
-        .map(|t| burnish::table::pair_index(t * 36, 700) as u32)
+    let dark: Vec<PairIndex> = (0..40)
+        .map(|t| burnish::table::pair_index(t * 36, 700))
         .collect();
     let solve = |value: f64, bound: Bound| {
         let mut solver = Solver::new(basis.clone(), Regularization::Auto);
         solver.apply_all(&lit);
         for &pair in &dark {
-            solver.apply(&BinChange {
-                pair,
-                before: None,
-                after: Some([value; 3]),
-                bounds: [bound; 3],
-            });
+            solver.apply(&BinChange::observed(pair, [value; 3], [bound; 3]));
         }
         solver.solve().coefficients
     };
@@ -367,27 +362,22 @@ fn the_band_correlation_tightens_only_for_agreeing_bins_spread_over_theta_d() {
     let disagreeing: Vec<[f64; 3]> = (0..BANDS).flat_map(|_| draw(1.0)).collect();
     let disagreeing = Reconstruction::new(basis.clone(), &disagreeing);
     let bands = pair_bands();
-    let spread: Vec<u32> = (0..burnish::table::PAIRS as u32).step_by(61).collect();
-    let one_knot: Vec<u32> = spread
+    let spread: Vec<PairIndex> = PairIndex::all().step_by(61).collect();
+    let one_knot: Vec<PairIndex> = spread
         .iter()
         .copied()
-        .filter(|&p| bands[p as usize].lower == 1 && bands[p as usize].frac < 0.02)
+        .filter(|&p| bands[p.index()].lower == 1 && bands[p.index()].frac < 0.02)
         .collect();
     assert!(
         one_knot.len() > 150,
         "{} bins near one knot",
         one_knot.len()
     );
-    let chosen = |truth: &Reconstruction, pairs: &[u32], model: PriorModel| -> f64 {
+    let chosen = |truth: &Reconstruction, pairs: &[PairIndex], model: PriorModel| -> f64 {
         let mut solver = Solver::with_model(basis.clone(), Regularization::Auto, model);
         for &pair in pairs {
-            let rho = truth.eval_pair(pair as usize).map(|v| v as f64);
-            solver.apply(&BinChange {
-                pair,
-                before: None,
-                after: Some(rho),
-                bounds: burnish::solver::EXACT,
-            });
+            let rho = truth.eval_pair(pair).map(|v| v as f64);
+            solver.apply(&BinChange::observed(pair, rho, burnish::solver::EXACT));
         }
         solver.solve().band_correlation
     };

@@ -19,7 +19,9 @@ use burnish::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, SampleRejected, Solution, Solver,
     SparseTable,
 };
-use burnish::table::{DIRECTIONS, DirIndex, PAIRS, PHI_BINS, pair_directions, pair_index};
+use burnish::table::{
+    DIRECTIONS, DirIndex, PAIRS, PHI_BINS, PairIndex, pair_directions, pair_index,
+};
 use common::small_basis;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestCaseResult, TestRunner};
@@ -246,7 +248,7 @@ impl Session {
     }
 
     /// Every observed bin and its value, bit for bit.
-    fn bins(&self) -> Vec<(u32, [u64; 3])> {
+    fn bins(&self) -> Vec<(PairIndex, [u64; 3])> {
         bins_of(&self.table)
     }
 
@@ -304,12 +306,12 @@ impl Session {
 
     /// The whole table against the model.
     fn check_table(&self) -> TestCaseResult {
-        let pairs: BTreeSet<u32> = self
+        let pairs: BTreeSet<PairIndex> = self
             .samples
             .values()
-            .map(|&(d_l, d_v, _)| pair_index(d_l, d_v) as u32)
+            .map(|&(d_l, d_v, _)| pair_index(d_l, d_v))
             .collect();
-        let observed: BTreeSet<u32> = self.table.observed().map(|(p, _)| p).collect();
+        let observed: BTreeSet<PairIndex> = self.table.observed().map(|(p, _)| p).collect();
         prop_assert_eq!(&observed, &pairs);
         prop_assert_eq!(self.solver.observed_bins(), pairs.len());
         for &pair in &pairs {
@@ -323,7 +325,7 @@ fn bits(value: Option<[f64; 3]>) -> Option<[u64; 3]> {
     value.map(|v| v.map(f64::to_bits))
 }
 
-fn bins_of(table: &SparseTable) -> Vec<(u32, [u64; 3])> {
+fn bins_of(table: &SparseTable) -> Vec<(PairIndex, [u64; 3])> {
     table
         .observed()
         .map(|(p, v)| (p, v.map(f64::to_bits)))
@@ -331,10 +333,10 @@ fn bins_of(table: &SparseTable) -> Vec<(u32, [u64; 3])> {
 }
 
 /// The bin of `pair` against the samples the model puts there, under the table's policy.
-fn check_bin(table: &SparseTable, samples: &Samples, pair: u32) -> TestCaseResult {
+fn check_bin(table: &SparseTable, samples: &Samples, pair: PairIndex) -> TestCaseResult {
     let inside: Vec<[f64; 3]> = samples
         .values()
-        .filter(|(d_l, d_v, _)| pair_index(*d_l, *d_v) as u32 == pair)
+        .filter(|(d_l, d_v, _)| pair_index(*d_l, *d_v) == pair)
         .map(|&(_, _, rho)| rho)
         .collect();
     let value = table.bin_value(pair);
@@ -490,20 +492,20 @@ fn solution_bits(s: &Solution) -> (Vec<[u64; 3]>, u64, u64, usize) {
 }
 
 /// Pairs to evaluate lazily: every observed one and a fixed spread over the table.
-fn probe_pairs(table: &SparseTable) -> Vec<u32> {
-    let mut pairs: Vec<u32> = table.observed().map(|(p, _)| p).collect();
-    pairs.extend((0..PAIRS as u32).step_by(10_007));
-    pairs.push(PAIRS as u32 - 1);
+fn probe_pairs(table: &SparseTable) -> Vec<PairIndex> {
+    let mut pairs: Vec<PairIndex> = table.observed().map(|(p, _)| p).collect();
+    pairs.extend(PairIndex::all().step_by(10_007));
+    pairs.push(PairIndex::from_index(PAIRS - 1));
     pairs
 }
 
 /// ρ finite and ≥ 0 on `pairs`, in both orders, bit for bit reciprocal and equal to the batch
 /// evaluation.
-fn check_reconstruction(recon: &Reconstruction, pairs: &[u32]) -> TestCaseResult {
+fn check_reconstruction(recon: &Reconstruction, pairs: &[PairIndex]) -> TestCaseResult {
     let mut batch_values = Vec::new();
     recon.eval_pairs(pairs, &mut batch_values);
     for (&pair, batch_value) in pairs.iter().zip(&batch_values) {
-        let (lo, hi) = pair_directions(pair as usize);
+        let (lo, hi) = pair_directions(pair);
         let forward = recon.eval(lo, hi);
         let backward = recon.eval(hi, lo);
         prop_assert!(
@@ -517,7 +519,7 @@ fn check_reconstruction(recon: &Reconstruction, pairs: &[u32]) -> TestCaseResult
         prop_assert_eq!(forward.map(f32::to_bits), batch_value.map(f32::to_bits));
         prop_assert_eq!(
             forward.map(f32::to_bits),
-            recon.eval_pair(pair as usize).map(f32::to_bits)
+            recon.eval_pair(pair).map(f32::to_bits)
         );
     }
     Ok(())
@@ -698,7 +700,7 @@ fn materialised_tables_are_physical_and_thread_count_independent() {
                     prop_assert!(table.is_physical(), "every entry finite and ≥ 0");
                     let recon = Reconstruction::new(basis(), &solution.coefficients);
                     for pair in probe_pairs(&session.table) {
-                        let (lo, hi) = pair_directions(pair as usize);
+                        let (lo, hi) = pair_directions(pair);
                         prop_assert_eq!(table.get(lo, hi), recon.eval(hi, lo));
                     }
                     reference = Some((solution, table));
@@ -754,7 +756,7 @@ fn duplicates_equal_one_sample() {
                 &mut single_changes,
             )
             .unwrap();
-        let pair = pair_index(d_l, d_v) as u32;
+        let pair = pair_index(d_l, d_v);
         let value = table.bin_value(pair).unwrap();
         prop_assert!(
             physical(&value),
@@ -915,10 +917,7 @@ fn one_sample_at_any_scale_and_overwhelming_regularisation() {
         prop_assert!(scale < 1e-250, "{:?} leaves coefficients {:e}", huge, scale);
         let recon = Reconstruction::new(basis(), &solution.coefficients);
         for pair in probe_pairs(&session.table) {
-            prop_assert_eq!(
-                recon.eval_pair(pair as usize),
-                mean.eval_pair(pair as usize)
-            );
+            prop_assert_eq!(recon.eval_pair(pair), mean.eval_pair(pair));
         }
         Ok(())
     });

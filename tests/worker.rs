@@ -65,12 +65,7 @@ fn batch_solution(basis: Arc<burnish::basis::Basis>, views: &[PaintedView]) -> V
     let mut solver = Solver::new(basis, Regularization::Auto);
     let all: Vec<_> = sparse
         .observed()
-        .map(|(pair, v)| burnish::solver::BinChange {
-            pair,
-            before: None,
-            after: Some(v),
-            bounds: burnish::solver::EXACT,
-        })
+        .map(|(pair, v)| burnish::solver::BinChange::observed(pair, v, burnish::solver::EXACT))
         .collect();
     solver.apply_all(&all);
     solver.rebuild();
@@ -131,11 +126,11 @@ fn dabs_in_any_batching_give_the_batch_solution() {
     assert!(snapshot.stats.samples > 1000);
     assert!(snapshot.oldest_input.is_some());
 
-    // The bin updates mirror the sparse table: every observed bin arrives, with its value.
+    // The bin changes carry the sparse table: every observed bin arrives, with its value.
     let updates = worker.take_bin_updates();
     let mut mirrored = std::collections::HashMap::new();
     for u in updates {
-        match u.value {
+        match u.after {
             Some(v) => mirrored.insert(u.pair, v),
             None => mirrored.remove(&u.pair),
         };
@@ -346,7 +341,7 @@ fn analyses_answer_from_the_state_when_asked() {
                     .iter()
                     .filter_map(|&(pixel, _)| {
                         let p = gbuffer.at(pixel as usize)?;
-                        Some(burnish::table::pair_index(p.light_bin?, p.view_bin?))
+                        Some(burnish::table::pair_index(p.light_bin?, p.view_bin?).index())
                     })
                     .collect();
                 for (i, s) in std_dev.iter().enumerate() {

@@ -11,7 +11,7 @@ use burnish::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, SampleRejected, Solution,
     Solver, SparseTable,
 };
-use burnish::table::{DIRECTIONS, DirIndex, PAIRS, PHI_BINS, pair_directions, pair_index};
+use burnish::table::{DIRECTIONS, DirIndex, PHI_BINS, PairIndex, pair_directions, pair_index};
 use libfuzzer_sys::fuzz_target;
 use std::collections::BTreeMap;
 use std::sync::{Arc, OnceLock};
@@ -91,7 +91,7 @@ fn rejection(rho: [f64; 3]) -> Option<SampleRejected> {
     }
 }
 
-fn bins(table: &SparseTable) -> Vec<(u32, [u64; 3])> {
+fn bins(table: &SparseTable) -> Vec<(PairIndex, [u64; 3])> {
     table
         .observed()
         .map(|(p, v)| (p, v.map(f64::to_bits)))
@@ -123,9 +123,9 @@ fn check_solution(solution: &Solution, table: &SparseTable) {
     );
     assert_eq!(solution.observed_bins, table.observed_count());
     let recon = Reconstruction::new(basis.clone(), &solution.coefficients);
-    let spread = (0..PAIRS as u32).step_by(65_537);
+    let spread = PairIndex::all().step_by(65_537);
     for pair in table.observed().map(|(p, _)| p).chain(spread) {
-        let (lo, hi) = pair_directions(pair as usize);
+        let (lo, hi) = pair_directions(pair);
         let rho = recon.eval(lo, hi);
         assert!(rho.iter().all(|v| v.is_finite() && *v >= 0.0), "ρ({lo}, {hi}) = {rho:?}");
         assert_eq!(rho.map(f32::to_bits), recon.eval(hi, lo).map(f32::to_bits));
@@ -248,7 +248,7 @@ fuzz_target!(|data: &[u8]| {
         assert!(physical(&value), "bin {pair} holds {value:?}");
         let inside = samples
             .values()
-            .filter(|(d_l, d_v, _)| pair_index(*d_l, *d_v) as u32 == pair)
+            .filter(|(d_l, d_v, _)| pair_index(*d_l, *d_v) == pair)
             .count();
         assert_eq!(table.samples_in(pair), inside);
     }

@@ -51,7 +51,7 @@ impl BurnishApp {
     pub fn perform(&mut self, action: Action) {
         let doc = &mut self.doc;
         let result = match action {
-            Action::NewSession => doc.new_session(&self.brush),
+            Action::NewSession => doc.new_session(),
             Action::OpenSession(path) => doc.open_session(&path).map(|b| self.brush = b),
             Action::SaveSession(path) => doc.save_session(&path, &self.brush),
             Action::ImportPainting(path) => doc.import_painting(&path),

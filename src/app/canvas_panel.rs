@@ -227,8 +227,8 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let Some(doc) = app.doc.active_view() else {
         return;
     };
-    let view_id = doc.id;
-    let resolution = doc.canvas.resolution();
+    let view_id = doc.id();
+    let resolution = doc.canvas().resolution();
     let (panel, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
     let view = &mut app.canvas_view;
 
@@ -270,15 +270,15 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
     if app.guide_opacity > 0.0
         && let Some(doc) = app.doc.active_view()
     {
-        let side = doc.guide.width;
+        let side = doc.guide().width;
         let current = app
             .canvas_view
             .guide
             .as_ref()
             .is_some_and(|(_, id, n)| *id == view_id && *n == side);
         if !current {
-            let full = PixelRect::new(0, 0, side as u32, doc.guide.height as u32);
-            let image = region_image(&doc.guide.pixels, side, full);
+            let full = PixelRect::new(0, 0, side as u32, doc.guide().height as u32);
+            let image = region_image(&doc.guide().pixels, side, full);
             app.canvas_view.guide = Some((
                 ui.ctx()
                     .load_texture("guide", image, TextureOptions::NEAREST),
@@ -319,7 +319,7 @@ fn upload_texture(app: &mut BurnishApp, ctx: &egui::Context, view_id: u32) {
     let Some(doc) = app.doc.active_view() else {
         return;
     };
-    let layers = doc.canvas.layers();
+    let layers = doc.canvas().layers();
     let width = layers.colour.width;
     let view = &mut app.canvas_view;
     let current = view
@@ -365,9 +365,9 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
     let Some(doc) = app.doc.active_view() else {
         return;
     };
-    let n = doc.gbuffer.resolution();
+    let n = doc.gbuffer().resolution();
     let mut pixels = vec![Color32::TRANSPARENT; n * n];
-    for (i, point) in doc.gbuffer.pixels().iter().enumerate() {
+    for (i, point) in doc.gbuffer().pixels().iter().enumerate() {
         let Some(p) = point else { continue };
         let (Some(l), Some(v)) = (p.light_bin, p.view_bin) else {
             continue;
@@ -375,10 +375,10 @@ fn update_overlay(app: &mut BurnishApp, ctx: &egui::Context) {
         if !p.is_lit() {
             continue;
         }
-        let pair = pair_index(l, v) as u32;
-        if app.doc.inconsistent().contains(&pair) {
+        let pair = pair_index(l, v);
+        if app.doc.is_inconsistent(pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(255, 40, 40, 150);
-        } else if !app.doc.observed().contains_key(&pair) {
+        } else if !app.doc.is_observed(pair) {
             pixels[i] = Color32::from_rgba_unmultiplied(40, 120, 255, 70);
         }
     }

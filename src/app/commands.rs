@@ -104,7 +104,7 @@ impl UiCommand {
 
     /// Whether it can be chosen now; the menu greys it out otherwise.
     pub fn is_enabled(self, app: &BurnishApp) -> bool {
-        let canvas = app.document().active_view().map(|doc| &doc.canvas);
+        let canvas = app.document().active_view().map(|doc| doc.canvas());
         match self {
             Self::Undo => canvas.is_some_and(|c| c.can_undo()),
             Self::Redo => canvas.is_some_and(|c| c.can_redo()),

@@ -312,9 +312,7 @@ impl BurnishApp {
         if let Some(std_dev) = polled.uncertainty {
             self.preview_state.uncertainty = Some(std_dev);
         }
-        for (pair, value) in polled.bins {
-            self.preview_state.queue_sparse(pair, value);
-        }
+        self.preview_state.queue_sparse(polled.bins);
         self.take_document_events();
         self.request_uncertainty();
     }

@@ -35,13 +35,13 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
     for (i, doc) in app.doc.views().iter().enumerate() {
         ui.horizontal(|ui| {
             if ui
-                .selectable_label(i == app.doc.active(), &doc.name)
+                .selectable_label(i == app.doc.active(), doc.name())
                 .on_hover_text("Paint this view")
                 .clicked()
             {
                 select = Some(i);
             }
-            let mut muted = doc.muted;
+            let mut muted = doc.muted();
             if ui
                 .checkbox(&mut muted, "mute")
                 .on_hover_text("A muted view keeps its paint but gives no samples")
@@ -70,7 +70,7 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
         }
     });
     if let Some(doc) = app.doc.active_view() {
-        let mut rule = doc.unpainted;
+        let mut rule = doc.unpainted();
         ui.horizontal(|ui| {
             let label = ui.label("Unpainted pixels");
             egui::ComboBox::from_id_salt("unpainted")
@@ -88,7 +88,7 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
                      painted pixels count; the rest is extrapolated",
                 );
         });
-        if rule != doc.unpainted {
+        if rule != doc.unpainted() {
             app.doc.set_unpainted(app.doc.active(), rule);
         }
         ui.horizontal(|ui| {
@@ -132,7 +132,7 @@ fn scene_setup(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let Some(doc) = app.doc.active_view() else {
         return;
     };
-    let original = doc.scene.clone();
+    let original = doc.scene().clone();
     let mut scene = original.clone();
     ui.heading("Scene");
     let mut open_obj = false;

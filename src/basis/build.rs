@@ -16,7 +16,7 @@ use super::{Basis, MAP_EPSILON, MIN_RESIDUAL_VARIANCE, cos_weight_polar};
 use crate::materials::Brdf;
 use crate::materials::database::{DatabaseSpec, material};
 use crate::materials::tabulate_mapped;
-use crate::table::PAIRS;
+use crate::table::{PAIRS, PairIndex};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef, Par, Side};
 use rand::SeedableRng;
@@ -135,7 +135,7 @@ impl EntryStats {
 
 /// √(pair multiplicity): off-diagonal pairs stand for two entries of the full table.
 fn row_weights() -> Vec<f64> {
-    (0..PAIRS)
+    PairIndex::all()
         .map(|p| crate::table::pair_multiplicity(p).sqrt())
         .collect()
 }
@@ -570,7 +570,7 @@ fn build(
     let weighted_residual: f64 = residual
         .iter()
         .enumerate()
-        .map(|(p, r)| crate::table::pair_multiplicity(p) * r)
+        .map(|(p, r)| crate::table::pair_multiplicity(PairIndex::from_index(p)) * r)
         .sum();
     let residual_variance =
         (weighted_residual / crate::table::ENTRIES as f64).max(MIN_RESIDUAL_VARIANCE);

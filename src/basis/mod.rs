@@ -12,7 +12,7 @@ pub mod cache;
 pub use build::{BasisSpec, BuildProgress, build_basis};
 pub use cache::{BasisCache, CacheOutcome};
 
-use crate::table::{PAIRS, PHI_BINS, THETA_BINS, pair_directions, theta_centre};
+use crate::table::{PAIRS, PHI_BINS, PairIndex, THETA_BINS, pair_directions, theta_centre};
 use std::sync::OnceLock;
 
 /// Cosine floor of the mapping weight c = clamp(cos θ_l cos θ_v, 0.01, 1).
@@ -36,7 +36,7 @@ pub fn cos_weight_polar(t_l: usize, t_v: usize) -> f64 {
 /// c for the pair index `pair`.
 #[inline]
 pub fn cos_weight(pair: usize) -> f64 {
-    let (lo, hi) = pair_directions(pair);
+    let (lo, hi) = pair_directions(PairIndex::from_index(pair));
     cos_weight_polar(lo as usize / PHI_BINS, hi as usize / PHI_BINS)
 }
 

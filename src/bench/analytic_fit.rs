@@ -10,7 +10,7 @@
 use crate::basis::{MAP_EPSILON, cos_weight};
 use crate::materials::Brdf;
 use crate::materials::models::{Distribution, Fresnel, Lambert, Microfacet};
-use crate::table::{bin_centre, pair_directions, pair_multiplicity};
+use crate::table::{PairIndex, bin_centre, pair_directions, pair_multiplicity};
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 use glam::DVec3;
@@ -155,18 +155,18 @@ pub struct FitResult {
 
 /// Fits Lambert + anisotropic GGX to observed bins `(pair, ρ)` (as [`crate::solver::SparseTable::observed`]
 /// gives them). With no observation it returns a mid-grey diffuse model.
-pub fn fit_lambert_ggx(bins: &[(u32, [f64; 3])], options: &FitOptions) -> FitResult {
+pub fn fit_lambert_ggx(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> FitResult {
     let observations: Vec<Observation> = bins
         .iter()
         .map(|&(pair, rho)| {
-            let (lo, hi) = pair_directions(pair as usize);
-            let c = cos_weight(pair as usize);
+            let (lo, hi) = pair_directions(pair);
+            let c = cos_weight(pair.index());
             Observation {
                 l: bin_centre(lo),
                 v: bin_centre(hi),
                 target: rho.map(|r| (r.max(0.0) * c + MAP_EPSILON).ln()),
                 c,
-                sqrt_weight: pair_multiplicity(pair as usize).sqrt(),
+                sqrt_weight: pair_multiplicity(pair).sqrt(),
             }
         })
         .collect();
@@ -209,7 +209,7 @@ pub fn fit_lambert_ggx(bins: &[(u32, [f64; 3])], options: &FitOptions) -> FitRes
 
 /// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,
 /// four isotropic roughnesses and anisotropic ones at four orientations.
-fn starting_points(bins: &[(u32, [f64; 3])]) -> Vec<[f64; P]> {
+fn starting_points(bins: &[(PairIndex, [f64; 3])]) -> Vec<[f64; P]> {
     let albedo: [f64; 3] = std::array::from_fn(|c| {
         let mut v: Vec<f64> = bins
             .iter()

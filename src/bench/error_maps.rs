@@ -11,7 +11,7 @@
 
 use crate::image_io::RgbImage;
 use crate::inspect::{TableImage, TableWindow, luminance};
-use crate::table::{DIRECTIONS, SymTable, cos_theta_centre};
+use crate::table::{DIRECTIONS, PairIndex, SymTable, cos_theta_centre};
 use rayon::prelude::*;
 use std::collections::HashSet;
 use std::path::Path;
@@ -22,7 +22,7 @@ pub const PANEL: usize = 405;
 const GAP: usize = 6;
 
 /// The four panels of one reconstruction, as linear RGB (written as an sRGB PNG).
-pub fn error_map(truth: &SymTable, estimate: &SymTable, observed: &HashSet<u32>) -> RgbImage {
+pub fn error_map(truth: &SymTable, estimate: &SymTable, observed: &HashSet<PairIndex>) -> RgbImage {
     let window = TableWindow::FULL;
     let lookup_truth = |l, v| truth.get(l, v);
     let lookup_estimate = |l, v| estimate.get(l, v);
@@ -56,7 +56,7 @@ pub fn error_map(truth: &SymTable, estimate: &SymTable, observed: &HashSet<u32>)
     });
     let observed_panel = pixels_of(&|x, y| {
         let (l, v) = window.bins_at(x, y, PANEL, PANEL);
-        let pair = crate::table::pair_index(l, v) as u32;
+        let pair = crate::table::pair_index(l, v);
         if observed.contains(&pair) {
             [1.0; 3]
         } else {
@@ -98,7 +98,7 @@ pub fn write_error_map(
     path: &Path,
     truth: &SymTable,
     estimate: &SymTable,
-    observed: &HashSet<u32>,
+    observed: &HashSet<PairIndex>,
 ) -> crate::Result<()> {
     crate::scene::write_png(path, &error_map(truth, estimate, observed))
 }
@@ -112,7 +112,7 @@ mod tests {
         let truth = SymTable::filled([0.2, 0.3, 0.4]);
         // The bin that the top-left pixel of a panel shows.
         let (l, v) = TableWindow::FULL.bins_at(0, 0, PANEL, PANEL);
-        let observed: HashSet<u32> = [crate::table::pair_index(l, v) as u32].into();
+        let observed: HashSet<PairIndex> = [crate::table::pair_index(l, v)].into();
         let map = error_map(&truth, &truth, &observed);
         assert_eq!(map.width, 4 * PANEL + 3 * GAP);
         let error_panel = 2 * (PANEL + GAP);

@@ -9,7 +9,7 @@ use crate::scene::{
     sample_pixel, samples_from_image,
 };
 use crate::solver::{Reconstruction, SampleKey, Solver, SparseTable};
-use crate::table::{PAIRS, pair_index};
+use crate::table::{PAIRS, PairIndex, pair_index};
 use rand::{RngExt, SeedableRng};
 use std::time::Instant;
 
@@ -241,12 +241,12 @@ pub(crate) fn measure(
     }
 
     // A preview needs the entries of the pixels it shows, not the table.
-    let mut pairs: Vec<u32> = gbuffer
+    let mut pairs: Vec<PairIndex> = gbuffer
         .pixels()
         .iter()
         .flatten()
         .filter(|p| p.is_lit())
-        .filter_map(|p| Some(pair_index(p.light_bin?, p.view_bin?) as u32))
+        .filter_map(|p| Some(pair_index(p.light_bin?, p.view_bin?)))
         .collect();
     pairs.sort_unstable();
     pairs.dedup();
@@ -295,7 +295,7 @@ pub(crate) fn measure(
 
 /// Distinct pairs among a batch of bin changes.
 fn distinct_pairs(changes: &[crate::solver::BinChange]) -> usize {
-    let mut pairs: Vec<u32> = changes.iter().map(|c| c.pair).collect();
+    let mut pairs: Vec<PairIndex> = changes.iter().map(|c| c.pair).collect();
     pairs.sort_unstable();
     pairs.dedup();
     pairs.len()

@@ -697,7 +697,7 @@ fn analytic_row(
     let (views, resolution, paint) = key;
     let start = Instant::now();
     let (table, _) = painted.sparse_table(Policy::Mean);
-    let bins: Vec<(u32, [f64; 3])> = table.observed().collect();
+    let bins: Vec<(crate::table::PairIndex, [f64; 3])> = table.observed().collect();
     let result = fit_lambert_ggx(&bins, fit);
     let estimate = tabulate(&result.model);
     let time_ms = painted.samples_ms + ms_since(start);

@@ -52,7 +52,7 @@ fn reconstruct(
     truth: &SymTable,
     scenes: &[Scene],
     object: &Object,
-) -> (Solver, BTreeSet<u32>) {
+) -> (Solver, BTreeSet<crate::table::PairIndex>) {
     let mut table = SparseTable::new(Policy::Mean);
     let mut changes = Vec::new();
     for (view, scene) in scenes.iter().enumerate() {

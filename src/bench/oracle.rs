@@ -5,7 +5,7 @@
 //! the painted bins.
 
 use crate::basis::Basis;
-use crate::table::{PAIRS, SymTable, pair_multiplicity};
+use crate::table::{PAIRS, PairIndex, SymTable, pair_multiplicity};
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 use rayon::prelude::*;
@@ -31,7 +31,7 @@ impl OracleProjector {
                 let mut g = vec![0f64; k * k];
                 let mut row = vec![0f64; k];
                 for pair in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
-                    let w = pair_multiplicity(pair);
+                    let w = pair_multiplicity(PairIndex::from_index(pair));
                     for (r, &u) in row.iter_mut().zip(basis.row(pair)) {
                         *r = u as f64;
                     }
@@ -75,7 +75,7 @@ impl OracleProjector {
             .map(|b| {
                 let mut rhs = vec![[0f64; 3]; k];
                 for pair in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
-                    let w = pair_multiplicity(pair);
+                    let w = pair_multiplicity(PairIndex::from_index(pair));
                     let y = values[pair].map(|v| w * basis.centred_observation(pair, v as f64));
                     for (r, &u) in rhs.iter_mut().zip(basis.row(pair)) {
                         for c in 0..3 {

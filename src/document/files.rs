@@ -8,7 +8,7 @@ use crate::export::{ExportOptions, Format, export, load_table};
 use crate::image_io::RgbImage;
 use crate::paint::BrushSettings;
 use crate::scene::{GBuffer, Scene, render_table, write_png};
-use crate::session::{Session, SessionView, StartMaterial};
+use crate::session::{BasisSettings, Session, SessionView, StartMaterial};
 use crate::solver::Reconstruction;
 use crate::table::merl::MerlBrdf;
 use crate::worker::{Command, ViewId};
@@ -56,10 +56,23 @@ impl Document {
                 view.base,
             )?);
         }
+        self.install_views(docs, session.active_view, session.start, session.basis);
+        Ok(session.brush)
+    }
+
+    /// Replaces every view with `docs` (numbered on from the next view id), and the
+    /// starting material and basis settings with those given.
+    fn install_views(
+        &mut self,
+        docs: Vec<ViewDoc>,
+        active: usize,
+        start: Option<StartMaterial>,
+        basis: BasisSettings,
+    ) {
         for old in self.views.drain(..) {
             self.worker.send(Command::RemoveView(old.id));
         }
-        self.next_view_id = first_id + docs.len() as u32;
+        self.next_view_id += docs.len() as u32;
         for doc in &docs {
             self.worker.send(Command::SetView {
                 view: doc.id,
@@ -77,7 +90,7 @@ impl Document {
         self.views = docs;
         // The session's own starting material, or none: its canvases already hold the
         // renders of it they were saved with.
-        match session.start {
+        match start {
             Some(start) => {
                 self.worker
                     .send(Command::SetStartMaterial(Some(start.table.clone())));
@@ -89,36 +102,22 @@ impl Document {
             }
             None => self.clear_start(),
         }
-        self.active = session.active_view.min(self.views.len().saturating_sub(1));
-        if session.basis != self.basis_settings {
-            self.worker.send(Command::SetPolicy(session.basis.policy));
+        self.active = active.min(self.views.len().saturating_sub(1));
+        if basis != self.basis_settings {
+            self.worker.send(Command::SetPolicy(basis.policy));
             self.worker
-                .send(Command::SetRegularization(session.basis.regularization));
-            self.basis_settings = session.basis;
+                .send(Command::SetRegularization(basis.regularization));
+            self.basis_settings = basis;
         }
         self.canvas_revision += 1;
-        Ok(session.brush)
     }
 
-    /// Starts over with one unpainted view of the default scene, keeping `brush` and the
-    /// basis settings.
-    pub fn new_session(&mut self, brush: &BrushSettings) -> crate::Result<()> {
+    /// Starts over with one unpainted view of the default scene, keeping the basis settings
+    /// (the brush is the UI's).
+    pub fn new_session(&mut self) -> crate::Result<()> {
+        // Installed as it is: a round trip through a saved session would trace it again.
         let view = ViewDoc::new(self.next_view_id, "View 1".into(), Scene::default())?;
-        let session = Session {
-            views: vec![SessionView {
-                name: view.name.clone(),
-                scene: view.scene.clone(),
-                muted: false,
-                paint: view.canvas.layers().clone(),
-                unpainted: view.unpainted,
-                base: None,
-            }],
-            active_view: 0,
-            brush: brush.clone(),
-            basis: self.basis_settings,
-            start: None,
-        };
-        self.load_session(session)?;
+        self.install_views(vec![view], 0, None, self.basis_settings);
         self.session_path = None;
         self.dirty = false;
         Ok(())

@@ -20,7 +20,8 @@ use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::paint::{BrushKind, BrushSettings, Canvas, CanvasChanges, PixelRect, UnpaintedPixels};
 use crate::scene::Scene;
 use crate::session::{Autosaver, BasisSettings, RecoveryInfo, StartMaterial};
-use crate::table::SymTable;
+use crate::solver::BinChange;
+use crate::table::{PairIndex, SymTable};
 use crate::worker::{Analysis, AnalysisKind, Command, Snapshot, ViewId, Worker};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -63,8 +64,8 @@ pub enum Event {
 /// What [`Document::poll`] took from the background threads that a UI draws itself.
 #[derive(Default)]
 pub struct Polled {
-    /// Sparse bins whose observed value changed (`None`: no longer observed), oldest first.
-    pub bins: Vec<(u32, Option<[f32; 3]>)>,
+    /// Sparse bins that changed, oldest first, as the worker reported them.
+    pub bins: Vec<BinChange>,
     /// A new estimate of the table's uncertainty: per unordered pair, the standard deviation
     /// of ρ.
     pub uncertainty: Option<Arc<[f32]>>,
@@ -96,9 +97,9 @@ pub struct Document {
     basis_cache: Option<PathBuf>,
     /// The newest snapshot taken from the worker.
     snapshot: Arc<Snapshot>,
-    /// Observed sparse bins and inconsistent ones, mirrored from the worker's updates.
-    observed: HashMap<u32, [f32; 3]>,
-    inconsistent: HashSet<u32>,
+    /// The observed sparse bins, each with whether it is inconsistent, as the worker's bin
+    /// changes last reported them: the UI's one copy of what the sparse table holds.
+    observed: HashMap<PairIndex, bool>,
     session_path: Option<PathBuf>,
     /// Whether anything changed since the last save.
     dirty: bool,
@@ -161,7 +162,6 @@ impl Document {
             basis_cache: config.basis_cache,
             snapshot: Arc::new(Snapshot::default()),
             observed: HashMap::new(),
-            inconsistent: HashSet::new(),
             session_path: None,
             dirty: false,
             changed_since_autosave: false,
@@ -329,14 +329,26 @@ impl Document {
         &self.snapshot
     }
 
-    /// The observed sparse bins (pair index → ρ), as the worker last reported them.
-    pub fn observed(&self) -> &HashMap<u32, [f32; 3]> {
-        &self.observed
+    /// The observed sparse bins, as the worker last reported them (in no order).
+    pub fn observed(&self) -> impl ExactSizeIterator<Item = PairIndex> + '_ {
+        self.observed.keys().copied()
     }
 
-    /// The bins where views or strokes disagree, as the worker last reported them.
-    pub fn inconsistent(&self) -> &HashSet<u32> {
-        &self.inconsistent
+    pub fn is_observed(&self, pair: PairIndex) -> bool {
+        self.observed.contains_key(&pair)
+    }
+
+    /// The bins where views or strokes disagree, as the worker last reported them (in no
+    /// order).
+    pub fn inconsistent(&self) -> impl Iterator<Item = PairIndex> + '_ {
+        self.observed
+            .iter()
+            .filter(|&(_, &inconsistent)| inconsistent)
+            .map(|(&pair, _)| pair)
+    }
+
+    pub fn is_inconsistent(&self, pair: PairIndex) -> bool {
+        self.observed.get(&pair).copied().unwrap_or(false)
     }
 
     /// Adds a view of `scene` and makes it active.
@@ -653,17 +665,12 @@ impl Document {
         for answer in self.worker.take_analyses() {
             self.take_analysis(answer, &mut polled);
         }
-        for update in self.worker.take_bin_updates() {
-            match update.value {
-                Some(v) => self.observed.insert(update.pair, v),
-                None => self.observed.remove(&update.pair),
+        polled.bins = self.worker.take_bin_updates();
+        for change in &polled.bins {
+            match change.after {
+                Some(_) => self.observed.insert(change.pair, change.inconsistent),
+                None => self.observed.remove(&change.pair),
             };
-            if update.inconsistent {
-                self.inconsistent.insert(update.pair);
-            } else {
-                self.inconsistent.remove(&update.pair);
-            }
-            polled.bins.push((update.pair, update.value));
         }
         let snapshot = self.worker.snapshot();
         if snapshot.version != self.snapshot.version {

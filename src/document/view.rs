@@ -15,19 +15,20 @@ pub enum Base {
     Prediction,
 }
 
-/// One view: a scene (object, light, camera), its geometry buffer and its canvas.
+/// One view: a scene (object, light, camera), its geometry buffer and its canvas. The
+/// document changes it (so that the worker hears of every change); others read it.
 pub struct ViewDoc {
-    pub id: ViewId,
-    pub name: String,
-    pub scene: Scene,
-    pub object: Arc<Object>,
-    pub gbuffer: Arc<GBuffer>,
+    pub(super) id: ViewId,
+    pub(super) name: String,
+    pub(super) scene: Scene,
+    pub(super) object: Arc<Object>,
+    pub(super) gbuffer: Arc<GBuffer>,
     /// The scene's grey diffuse guide: a fresh canvas's base, and the reference layer.
-    pub guide: RgbImage,
-    pub canvas: Canvas,
-    pub muted: bool,
+    pub(super) guide: RgbImage,
+    pub(super) canvas: Canvas,
+    pub(super) muted: bool,
     /// What the pixels the artist did not paint say.
-    pub unpainted: UnpaintedPixels,
+    pub(super) unpainted: UnpaintedPixels,
     base: Base,
 }
 
@@ -75,6 +76,47 @@ impl ViewDoc {
             Base::Guide
         };
         Ok(doc)
+    }
+
+    pub fn id(&self) -> ViewId {
+        self.id
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    pub fn object(&self) -> &Arc<Object> {
+        &self.object
+    }
+
+    pub fn gbuffer(&self) -> &Arc<GBuffer> {
+        &self.gbuffer
+    }
+
+    /// The scene's grey diffuse guide: a fresh canvas's base, and the reference layer.
+    pub fn guide(&self) -> &RgbImage {
+        &self.guide
+    }
+
+    /// The canvas; the document's operations paint on it (see
+    /// [`super::Document::active_canvas_mut`]).
+    pub fn canvas(&self) -> &Canvas {
+        &self.canvas
+    }
+
+    /// A muted view keeps its paint but gives no samples.
+    pub fn muted(&self) -> bool {
+        self.muted
+    }
+
+    /// What the pixels the artist did not paint say.
+    pub fn unpainted(&self) -> UnpaintedPixels {
+        self.unpainted
     }
 
     /// What the canvas shows under the paint.

@@ -150,7 +150,7 @@ pub fn pair_bands_spaced(spacing: KnotSpacing) -> &'static [BandWeights] {
             .collect();
         for_each_pair(|pair, lo, hi| {
             let d = centres[lo as usize].dot(centres[hi as usize]);
-            out[pair] = BandWeights::of_theta_d_spaced(theta_d(d), BANDS, spacing);
+            out[pair.index()] = BandWeights::of_theta_d_spaced(theta_d(d), BANDS, spacing);
         });
         out
     })

@@ -3,6 +3,7 @@
 //! chose (see `ridge` for the model they enter).
 
 use super::bands::{BANDS, BandWeights, DEFAULT_KNOTS, KnotSpacing, pair_bands_spaced};
+use crate::table::PairIndex;
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Side};
 
@@ -129,14 +130,14 @@ impl PriorModel {
         self.bands * components
     }
 
-    pub(super) fn band_weights(&self, pair: u32) -> BandWeights {
+    pub(super) fn band_weights(&self, pair: PairIndex) -> BandWeights {
         if self.bands == 1 {
             BandWeights {
                 lower: 0,
                 frac: 0.0,
             }
         } else {
-            pair_bands_spaced(self.knots)[pair as usize]
+            pair_bands_spaced(self.knots)[pair.index()]
         }
     }
 

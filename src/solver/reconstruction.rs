@@ -3,7 +3,7 @@
 
 use super::bands::{BANDS, DEFAULT_KNOTS, KnotSpacing, pair_bands_spaced};
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
-use crate::table::{DIRECTIONS, DirIndex, PHI_BINS, Rgb, SymTable, pair_index};
+use crate::table::{DIRECTIONS, DirIndex, PHI_BINS, PairIndex, Rgb, SymTable, pair_index};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -65,26 +65,26 @@ impl Reconstruction {
 
     /// ρ of the unordered pair `pair`.
     #[inline]
-    pub fn eval_pair(&self, pair: usize) -> Rgb {
+    pub fn eval_pair(&self, pair: PairIndex) -> Rgb {
         let (lo, hi) = crate::table::pair_directions(pair);
         self.evaluator()
-            .eval(pair, lo as usize / PHI_BINS, hi as usize / PHI_BINS)
+            .eval(pair.index(), lo as usize / PHI_BINS, hi as usize / PHI_BINS)
     }
 
     /// ρ(d_l, d_v).
     #[inline]
     pub fn eval(&self, d_l: DirIndex, d_v: DirIndex) -> Rgb {
-        let pair = pair_index(d_l, d_v);
+        let pair = pair_index(d_l, d_v).index();
         self.evaluator()
             .eval(pair, d_l as usize / PHI_BINS, d_v as usize / PHI_BINS)
     }
 
     /// Evaluates only the pairs a view asks for, in parallel for large requests.
-    pub fn eval_pairs(&self, pairs: &[u32], out: &mut Vec<Rgb>) {
+    pub fn eval_pairs(&self, pairs: &[PairIndex], out: &mut Vec<Rgb>) {
         let evaluator = self.evaluator();
-        let one = |&p: &u32| {
-            let (lo, hi) = crate::table::pair_directions(p as usize);
-            evaluator.eval(p as usize, lo as usize / PHI_BINS, hi as usize / PHI_BINS)
+        let one = |&p: &PairIndex| {
+            let (lo, hi) = crate::table::pair_directions(p);
+            evaluator.eval(p.index(), lo as usize / PHI_BINS, hi as usize / PHI_BINS)
         };
         out.clear();
         if pairs.len() < 16_384 {

@@ -58,7 +58,7 @@ use super::prior::EVIDENCE_BAND_CORRELATIONS;
 pub use super::prior::{DEFAULT_ALPHA, PriorModel, Regularization};
 use super::sparse::{BinChange, Bound, Bounds, EXACT};
 use crate::basis::{Basis, map_value};
-use crate::table::{cos_theta_centre, pair_directions};
+use crate::table::{PairIndex, cos_theta_centre, pair_directions};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use std::collections::{BTreeMap, BTreeSet};
@@ -135,9 +135,9 @@ pub struct Solver {
     model: PriorModel,
     /// The prior's mean coefficients (a starting material's projection, K rows), or zero.
     prior_mean: Option<Vec<[f64; 3]>>,
-    observed: BTreeMap<u32, Observed>,
+    observed: BTreeMap<PairIndex, Observed>,
     /// Observed pairs with at least one bounded channel, solved for at [`Solver::solve`].
-    censored: BTreeSet<u32>,
+    censored: BTreeSet<PairIndex>,
     /// N, D × D row-major with D = bands × K.
     normal: Vec<f64>,
     rhs: Vec<[f64; 3]>,
@@ -150,8 +150,8 @@ pub struct Solver {
 }
 
 /// Rec. 709 luminance × cos θ_l cos θ_v of a bin value: what it adds to a render.
-fn bin_brightness(pair: u32, rho: [f64; 3]) -> f64 {
-    let (lo, hi) = pair_directions(pair as usize);
+fn bin_brightness(pair: PairIndex, rho: [f64; 3]) -> f64 {
+    let (lo, hi) = pair_directions(pair);
     let luminance = 0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2];
     (luminance * cos_theta_centre(lo) * cos_theta_centre(hi)).max(0.0)
 }
@@ -245,13 +245,13 @@ impl Solver {
         self.model.rows(self.basis.components())
     }
 
-    fn centred(&self, pair: u32, rho: [f64; 3]) -> [f64; 3] {
-        rho.map(|v| self.basis.centred_observation(pair as usize, v))
+    fn centred(&self, pair: PairIndex, rho: [f64; 3]) -> [f64; 3] {
+        rho.map(|v| self.basis.centred_observation(pair.index(), v))
     }
 
     /// Multiplicity × the rounded brightness weight of a bin of brightness `brightness`.
-    fn weight_of(&self, pair: u32, brightness: f64) -> f64 {
-        let m = crate::table::pair_multiplicity(pair as usize);
+    fn weight_of(&self, pair: PairIndex, brightness: f64) -> f64 {
+        let m = crate::table::pair_multiplicity(pair);
         let (beta, kappa, mean) = (
             self.model.brightness_exponent,
             self.model.brightness_floor,
@@ -312,7 +312,7 @@ impl Solver {
                 } else {
                     let row: Box<[f64]> = self
                         .basis
-                        .row(pair as usize)
+                        .row(pair.index())
                         .iter()
                         .map(|&u| u as f64)
                         .collect();
@@ -357,11 +357,16 @@ impl Solver {
     /// exact observation at b/2. Left a bound, it lets the fit drive such bins far below the
     /// map's floor, which costs nothing there and frees the coefficients to overshoot
     /// elsewhere: on the calibration folds, one view of an 8-bit metal doubled its error so.
-    fn pin_narrow_bounds(&self, pair: u32, rho: [f64; 3], bounds: Bounds) -> ([f64; 3], Bounds) {
+    fn pin_narrow_bounds(
+        &self,
+        pair: PairIndex,
+        rho: [f64; 3],
+        bounds: Bounds,
+    ) -> ([f64; 3], Bounds) {
         if bounds.iter().all(|&b| b != Bound::AtMost) {
             return (rho, bounds);
         }
-        let c = crate::basis::cos_weight(pair as usize);
+        let c = crate::basis::cos_weight(pair.index());
         let (mut rho, mut bounds) = (rho, bounds);
         for ch in 0..3 {
             // The mapped length of [0, b]; the map's reference cancels out.
@@ -665,7 +670,7 @@ impl Solver {
 
     /// Observations a new view would add, as the solver would weigh them: (pair, weight)
     /// with `predicted` values (the current reconstruction's) standing in for the paint.
-    pub fn prospective_weight(&self, pair: u32, predicted: [f64; 3]) -> f64 {
+    pub fn prospective_weight(&self, pair: PairIndex, predicted: [f64; 3]) -> f64 {
         self.weight_of(pair, bin_brightness(pair, predicted))
     }
 
@@ -817,7 +822,7 @@ impl Posterior {
     }
 
     /// ψ_p: where pair `pair`'s basis row `row` enters the coefficients (D entries).
-    pub fn design_row(&self, pair: u32, row: &[f32]) -> Vec<f64> {
+    pub fn design_row(&self, pair: PairIndex, row: &[f32]) -> Vec<f64> {
         let k = self.components;
         let mut psi = vec![0.0; self.model.rows(k)];
         for (j, phi) in self.model.band_weights(pair).pairs() {
@@ -832,7 +837,7 @@ impl Posterior {
 
     /// Variance of the mapped value of pair `pair` given the painted bins (the coefficients'
     /// share; the basis's residual there adds to it).
-    pub fn mapped_variance(&self, pair: u32, row: &[f32]) -> f64 {
+    pub fn mapped_variance(&self, pair: PairIndex, row: &[f32]) -> f64 {
         let k = self.components;
         let blocks = self.model.band_weights(pair).pairs();
         let mut sum = 0.0;
@@ -935,17 +940,18 @@ impl Posterior {
         let values: Vec<crate::table::Rgb> = (0..crate::table::PAIRS)
             .into_par_iter()
             .with_min_len(4096)
-            .map(|pair| {
-                let u = basis.row(pair);
-                let w = self.model.band_weights(pair as u32);
+            .map(|index| {
+                let pair = PairIndex::from_index(index);
+                let u = basis.row(index);
+                let w = self.model.band_weights(pair);
                 let (a, f) = (w.lower as usize, w.frac as f64);
                 let mut var = (1.0 - f) * (1.0 - f) * quadratic(&diagonal[a], u);
                 if f != 0.0 {
                     var += 2.0 * f * (1.0 - f) * quadratic(&next[a], u)
                         + f * f * quadratic(&diagonal[a + 1], u);
                 }
-                let sd = (var.max(0.0) + residuals[pair] as f64).sqrt();
-                let c = crate::basis::cos_weight(pair);
+                let sd = (var.max(0.0) + residuals[index] as f64).sqrt();
+                let c = crate::basis::cos_weight(index);
                 reconstruction.eval_pair(pair).map(|rho| {
                     let slope = (rho as f64 * c + crate::basis::MAP_EPSILON) / c;
                     let v = (slope * sd) as f32;

@@ -4,7 +4,7 @@
 //! A bin keeps its samples sorted by key and recomputes its value from them on every change:
 //! exact, order-independent (bit-identical to a batch build) and drift-free.
 
-use crate::table::{DirIndex, pair_index};
+use crate::table::{DirIndex, PairIndex, pair_index};
 use std::collections::{BTreeMap, HashMap};
 
 /// Identifies one sample: a pixel of a view.
@@ -68,14 +68,51 @@ pub type Bounds = [Bound; 3];
 /// Every channel exact: what HDR paint and the app's canvas give.
 pub const EXACT: Bounds = [Bound::Exact; 3];
 
-/// A bin whose value changed: `before`/`after` are `None` when the bin was/is empty;
-/// `bounds` says what `after` means per channel ([`EXACT`] when it is `None`).
+/// A bin whose value, bounds or consistency changed: `before`/`after` are `None` when the
+/// bin was/is empty; `bounds` says what `after` means per channel ([`EXACT`] when it is
+/// `None`). The one type of a bin's change along the whole flow: the sparse table emits it,
+/// the solver applies it, the worker coalesces a batch's changes and forwards them to the
+/// UI, and the preview converts `after` to f32 only when it uploads it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BinChange {
-    pub pair: u32,
+    pub pair: PairIndex,
     pub before: Option<[f64; 3]>,
     pub after: Option<[f64; 3]>,
     pub bounds: Bounds,
+    /// Whether the bin's samples now disagree beyond the inconsistency factor.
+    pub inconsistent: bool,
+}
+
+impl BinChange {
+    /// A change from nothing to `after`, marked consistent: a bin as a new solver (which
+    /// reads no consistency) or a test first sees it.
+    pub fn observed(pair: PairIndex, after: [f64; 3], bounds: Bounds) -> Self {
+        Self {
+            pair,
+            before: None,
+            after: Some(after),
+            bounds,
+            inconsistent: false,
+        }
+    }
+
+    /// Each pair of `changes` once, in pair order: the first change's `before` with the
+    /// last one's state.
+    pub fn coalesce(changes: &[BinChange]) -> Vec<BinChange> {
+        let mut merged = changes.to_vec();
+        // Stable: a pair's changes keep their order.
+        merged.sort_by_key(|c| c.pair);
+        merged.dedup_by(|later, first| {
+            if later.pair != first.pair {
+                return false;
+            }
+            first.after = later.after;
+            first.bounds = later.bounds;
+            first.inconsistent = later.inconsistent;
+            true
+        });
+        merged
+    }
 }
 
 /// Why a sample was not taken.
@@ -101,6 +138,8 @@ struct Bin {
     samples: Vec<Held>,
     value: [f64; 3],
     bounds: Bounds,
+    /// Kept with the value, so that counting and reporting inconsistent bins never rescans.
+    inconsistent: bool,
 }
 
 fn luminance(rgb: &[f64; 3]) -> f64 {
@@ -154,6 +193,11 @@ impl Bin {
         best
     }
 
+    /// Whether the samples disagree beyond `ratio` (two at least).
+    fn disagrees(&self, ratio: f64) -> bool {
+        self.samples.len() > 1 && self.spread() > ratio
+    }
+
     /// Ratio of brightest to darkest sample luminance (with a small floor).
     fn spread(&self) -> f64 {
         const FLOOR: f64 = 1e-3;
@@ -173,8 +217,10 @@ pub struct SparseTable {
     policy: Policy,
     /// Samples of one bin whose luminances differ by more than this factor are inconsistent.
     inconsistency_ratio: f64,
-    sample_bins: HashMap<SampleKey, u32>,
-    bins: BTreeMap<u32, Bin>,
+    sample_bins: HashMap<SampleKey, PairIndex>,
+    bins: BTreeMap<PairIndex, Bin>,
+    /// Bins whose `inconsistent` is set.
+    inconsistent: usize,
 }
 
 impl Default for SparseTable {
@@ -193,6 +239,7 @@ impl SparseTable {
             inconsistency_ratio: Self::DEFAULT_INCONSISTENCY_RATIO,
             sample_bins: HashMap::new(),
             bins: BTreeMap::new(),
+            inconsistent: 0,
         }
     }
 
@@ -200,9 +247,27 @@ impl SparseTable {
         self.policy
     }
 
-    /// Sets the inconsistency factor (> 1).
-    pub fn set_inconsistency_ratio(&mut self, ratio: f64) {
+    /// Sets the inconsistency factor (> 1); bins whose consistency flips are reported.
+    pub fn set_inconsistency_ratio(&mut self, ratio: f64, changes: &mut Vec<BinChange>) {
         self.inconsistency_ratio = ratio.max(1.0);
+        for (&pair, bin) in self.bins.iter_mut() {
+            let inconsistent = bin.disagrees(self.inconsistency_ratio);
+            if inconsistent != bin.inconsistent {
+                bin.inconsistent = inconsistent;
+                if inconsistent {
+                    self.inconsistent += 1;
+                } else {
+                    self.inconsistent -= 1;
+                }
+                changes.push(BinChange {
+                    pair,
+                    before: Some(bin.value),
+                    after: Some(bin.value),
+                    bounds: bin.bounds,
+                    inconsistent,
+                });
+            }
+        }
     }
 
     /// Number of samples held.
@@ -216,43 +281,40 @@ impl SparseTable {
     }
 
     /// The value of the bin of pair index `pair`, if observed.
-    pub fn bin_value(&self, pair: u32) -> Option<[f64; 3]> {
+    pub fn bin_value(&self, pair: PairIndex) -> Option<[f64; 3]> {
         self.bins.get(&pair).map(|b| b.value)
     }
 
     /// Observed bins and their values, in pair order.
-    pub fn observed(&self) -> impl Iterator<Item = (u32, [f64; 3])> + '_ {
+    pub fn observed(&self) -> impl Iterator<Item = (PairIndex, [f64; 3])> + '_ {
         self.bins.iter().map(|(&p, b)| (p, b.value))
     }
 
     /// Observed bins with their values and what each channel's value means, in pair order.
-    pub fn observed_bounded(&self) -> impl Iterator<Item = (u32, [f64; 3], Bounds)> + '_ {
+    pub fn observed_bounded(&self) -> impl Iterator<Item = (PairIndex, [f64; 3], Bounds)> + '_ {
         self.bins.iter().map(|(&p, b)| (p, b.value, b.bounds))
     }
 
     /// Number of samples in the bin of `pair`.
-    pub fn samples_in(&self, pair: u32) -> usize {
+    pub fn samples_in(&self, pair: PairIndex) -> usize {
         self.bins.get(&pair).map_or(0, |b| b.samples.len())
     }
 
     /// Bins whose samples disagree beyond the inconsistency factor, in pair order.
-    pub fn inconsistent_bins(&self) -> impl Iterator<Item = u32> + '_ {
-        let ratio = self.inconsistency_ratio;
+    pub fn inconsistent_bins(&self) -> impl Iterator<Item = PairIndex> + '_ {
         self.bins
             .iter()
-            .filter(move |(_, b)| b.samples.len() > 1 && b.spread() > ratio)
+            .filter(|(_, b)| b.inconsistent)
             .map(|(&p, _)| p)
     }
 
     /// Whether the bin's samples disagree beyond the inconsistency factor.
-    pub fn is_inconsistent(&self, pair: u32) -> bool {
-        self.bins
-            .get(&pair)
-            .is_some_and(|b| b.samples.len() > 1 && b.spread() > self.inconsistency_ratio)
+    pub fn is_inconsistent(&self, pair: PairIndex) -> bool {
+        self.bins.get(&pair).is_some_and(|b| b.inconsistent)
     }
 
     pub fn inconsistent_count(&self) -> usize {
-        self.inconsistent_bins().count()
+        self.inconsistent
     }
 
     /// Adds or replaces the sample `key` with value `rho` in bin (d_l, d_v).
@@ -286,7 +348,7 @@ impl SparseTable {
         }
         // −0 is a valid zero; store +0 so no table ever carries a negative sign.
         let rho = rho.map(|c| if c == 0.0 { 0.0 } else { c });
-        let pair = pair_index(d_l, d_v) as u32;
+        let pair = pair_index(d_l, d_v);
         match self.sample_bins.insert(key, pair) {
             Some(old_pair) if old_pair != pair => {
                 self.edit_bin(old_pair, changes, |s| s.retain(|h| h.key != key));
@@ -338,6 +400,7 @@ impl SparseTable {
                     before: Some(bin.value),
                     after: Some(value),
                     bounds: bin.bounds,
+                    inconsistent: bin.inconsistent,
                 });
                 bin.value = value;
             }
@@ -346,27 +409,36 @@ impl SparseTable {
 
     fn edit_bin(
         &mut self,
-        pair: u32,
+        pair: PairIndex,
         changes: &mut Vec<BinChange>,
         edit: impl FnOnce(&mut Vec<Held>),
     ) {
         let bin = self.bins.entry(pair).or_default();
         let before = (!bin.samples.is_empty()).then_some((bin.value, bin.bounds));
+        let was_inconsistent = bin.inconsistent;
         edit(&mut bin.samples);
-        let after = if bin.samples.is_empty() {
+        let (after, inconsistent) = if bin.samples.is_empty() {
             self.bins.remove(&pair);
-            None
+            (None, false)
         } else {
             bin.value = bin.aggregate(self.policy);
             bin.bounds = bin.aggregate_bounds();
-            Some((bin.value, bin.bounds))
+            bin.inconsistent = bin.disagrees(self.inconsistency_ratio);
+            (Some((bin.value, bin.bounds)), bin.inconsistent)
         };
-        if before != after {
+        match (was_inconsistent, inconsistent) {
+            (false, true) => self.inconsistent += 1,
+            (true, false) => self.inconsistent -= 1,
+            _ => {}
+        }
+        // A flip of consistency alone is reported too: the UI marks such bins.
+        if before != after || was_inconsistent != inconsistent {
             changes.push(BinChange {
                 pair,
                 before: before.map(|(v, _)| v),
                 after: after.map(|(v, _)| v),
                 bounds: after.map_or(EXACT, |(_, b)| b),
+                inconsistent,
             });
         }
     }
@@ -388,7 +460,7 @@ mod tests {
             .unwrap();
         t.set_sample(key(2), 9, 3, [3.0, 3.0, 3.0], &mut ch)
             .unwrap();
-        let pair = pair_index(3, 9) as u32;
+        let pair = pair_index(3, 9);
         assert_eq!(t.bin_value(pair), Some([2.0; 3]));
         t.set_sample(key(2), 9, 3, [5.0, 5.0, 5.0], &mut ch)
             .unwrap();
@@ -427,12 +499,32 @@ mod tests {
     }
 
     #[test]
+    fn consistency_is_reported_even_when_the_value_stays() {
+        let mut t = SparseTable::new(Policy::Min);
+        let mut ch = Vec::new();
+        t.set_sample(key(1), 3, 9, [1.0; 3], &mut ch).unwrap();
+        // Under Min a brighter sample leaves the value, but the bin now disagrees.
+        t.set_sample(key(2), 3, 9, [5.0; 3], &mut ch).unwrap();
+        assert_eq!(t.inconsistent_count(), 1);
+        let last = ch.last().unwrap();
+        assert_eq!((last.before, last.after), (Some([1.0; 3]), Some([1.0; 3])));
+        assert!(last.inconsistent);
+        let merged = BinChange::coalesce(&ch);
+        assert_eq!(merged.len(), 1);
+        assert_eq!((merged[0].before, merged[0].after), (None, Some([1.0; 3])));
+        assert!(merged[0].inconsistent);
+        t.remove_sample(key(2), &mut ch);
+        assert_eq!(t.inconsistent_count(), 0);
+        assert!(!ch.last().unwrap().inconsistent);
+    }
+
+    #[test]
     fn a_sample_that_moves_bins_leaves_the_old_one() {
         let mut t = SparseTable::default();
         let mut ch = Vec::new();
         t.set_sample(key(0), 1, 2, [1.0; 3], &mut ch).unwrap();
         t.set_sample(key(0), 5, 6, [1.0; 3], &mut ch).unwrap();
         assert_eq!(t.observed_count(), 1);
-        assert_eq!(t.bin_value(pair_index(1, 2) as u32), None);
+        assert_eq!(t.bin_value(pair_index(1, 2)), None);
     }
 }

@@ -87,23 +87,92 @@ pub fn bin_centre(d: DirIndex) -> DVec3 {
     DVec3::new(st * cp, st * sp, ct)
 }
 
+/// The index of an unordered (light bin, view bin) pair in a reciprocal table: always below
+/// [`PAIRS`]. One type for it everywhere (sparse bins, the solver, the worker's updates, the
+/// preview), where a bare integer once stood, sometimes `usize` and sometimes `u32`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[repr(transparent)]
+pub struct PairIndex(u32);
+
+/// A pair index at or past [`PAIRS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("pair index {0} is out of range (there are {PAIRS} pairs)")]
+pub struct PairOutOfRange(pub usize);
+
+impl PairIndex {
+    /// The pair at storage position `index`. Panics at or past [`PAIRS`].
+    #[inline]
+    pub const fn from_index(index: usize) -> Self {
+        assert!(index < PAIRS, "pair index out of range");
+        Self(index as u32)
+    }
+
+    /// The position of the pair in pair-ordered storage.
+    #[inline]
+    pub const fn index(self) -> usize {
+        self.0 as usize
+    }
+
+    /// The index as the `u32` GPU buffers hold.
+    #[inline]
+    pub const fn get(self) -> u32 {
+        self.0
+    }
+
+    /// Every pair, in storage order.
+    pub fn all() -> impl DoubleEndedIterator<Item = Self> + ExactSizeIterator + Clone {
+        (0..PAIRS as u32).map(Self)
+    }
+}
+
+impl TryFrom<usize> for PairIndex {
+    type Error = PairOutOfRange;
+    fn try_from(index: usize) -> Result<Self, PairOutOfRange> {
+        if index < PAIRS {
+            Ok(Self(index as u32))
+        } else {
+            Err(PairOutOfRange(index))
+        }
+    }
+}
+
+impl TryFrom<u32> for PairIndex {
+    type Error = PairOutOfRange;
+    fn try_from(index: u32) -> Result<Self, PairOutOfRange> {
+        Self::try_from(index as usize)
+    }
+}
+
+impl From<PairIndex> for usize {
+    fn from(pair: PairIndex) -> usize {
+        pair.index()
+    }
+}
+
+impl std::fmt::Display for PairIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
 /// Index of the unordered pair {a, b} in a reciprocal table.
 ///
 /// Pairs are ordered by the larger index, then the smaller, so that iterating
 /// `hi in 0..DIRECTIONS, lo in 0..=hi` walks the storage in order.
 #[inline]
-pub fn pair_index(a: DirIndex, b: DirIndex) -> usize {
+pub fn pair_index(a: DirIndex, b: DirIndex) -> PairIndex {
     let (lo, hi) = if a <= b {
-        (a as usize, b as usize)
+        (a as u32, b as u32)
     } else {
-        (b as usize, a as usize)
+        (b as u32, a as u32)
     };
-    hi * (hi + 1) / 2 + lo
+    debug_assert!((hi as usize) < DIRECTIONS);
+    PairIndex(hi * (hi + 1) / 2 + lo)
 }
 
 /// The directions (lo, hi) of a pair index; inverse of [`pair_index`].
-pub fn pair_directions(pair: usize) -> (DirIndex, DirIndex) {
-    debug_assert!(pair < PAIRS);
+pub fn pair_directions(pair: PairIndex) -> (DirIndex, DirIndex) {
+    let pair = pair.index();
     // hi is the largest integer with hi(hi+1)/2 <= pair.
     let mut hi = ((((8 * pair + 1) as f64).sqrt() - 1.0) / 2.0) as usize;
     while hi * (hi + 1) / 2 > pair {
@@ -118,17 +187,17 @@ pub fn pair_directions(pair: usize) -> (DirIndex, DirIndex) {
 
 /// How many full-table entries a pair stands for: 1 on the diagonal, 2 off it.
 #[inline]
-pub fn pair_multiplicity(pair: usize) -> f64 {
+pub fn pair_multiplicity(pair: PairIndex) -> f64 {
     let (lo, hi) = pair_directions(pair);
     if lo == hi { 1.0 } else { 2.0 }
 }
 
 /// Calls `f(pair, lo, hi)` for every pair in storage order.
-pub fn for_each_pair(mut f: impl FnMut(usize, DirIndex, DirIndex)) {
+pub fn for_each_pair(mut f: impl FnMut(PairIndex, DirIndex, DirIndex)) {
     let mut pair = 0;
     for hi in 0..DIRECTIONS {
         for lo in 0..=hi {
-            f(pair, lo as DirIndex, hi as DirIndex);
+            f(PairIndex(pair), lo as DirIndex, hi as DirIndex);
             pair += 1;
         }
     }
@@ -184,7 +253,7 @@ mod tests {
     fn pair_index_is_a_bijection() {
         let mut expected = 0;
         for_each_pair(|pair, lo, hi| {
-            assert_eq!(pair, expected);
+            assert_eq!(pair.index(), expected);
             assert_eq!(pair_index(lo, hi), pair);
             assert_eq!(pair_index(hi, lo), pair);
             assert_eq!(pair_directions(pair), (lo, hi));
@@ -192,5 +261,10 @@ mod tests {
         });
         assert_eq!(expected, PAIRS);
         assert_eq!(PAIRS, 1_313_010);
+        assert_eq!(
+            PairIndex::try_from(PAIRS - 1),
+            Ok(PairIndex::from_index(PAIRS - 1))
+        );
+        assert_eq!(PairIndex::try_from(PAIRS), Err(PairOutOfRange(PAIRS)));
     }
 }

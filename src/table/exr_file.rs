@@ -66,13 +66,13 @@ pub fn decode_table_exr(bytes: &[u8], path: &Path) -> Result<SymTable> {
 mod tests {
     use super::*;
     use crate::image_io::{RgbImage, read_exr_rgb, write_exr_rgb};
-    use crate::table::{PAIRS, pair_directions};
+    use crate::table::{PAIRS, PairIndex, pair_directions};
 
     /// A table whose pairs all differ, with values spread over many binades.
     fn varied_table() -> SymTable {
         let values = (0..PAIRS)
             .map(|pair| {
-                let (lo, hi) = pair_directions(pair);
+                let (lo, hi) = pair_directions(PairIndex::from_index(pair));
                 let x = pair as f32;
                 [
                     x * 1e-3,

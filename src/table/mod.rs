@@ -45,7 +45,7 @@ impl SymTable {
             .into_par_iter()
             .with_min_len(4096)
             .map(|pair| {
-                let (lo, hi) = pair_directions(pair);
+                let (lo, hi) = pair_directions(PairIndex::from_index(pair));
                 f(lo, hi)
             })
             .collect();
@@ -55,13 +55,13 @@ impl SymTable {
     /// ρ for light bin `d_l` and view bin `d_v`.
     #[inline]
     pub fn get(&self, d_l: DirIndex, d_v: DirIndex) -> Rgb {
-        self.values[pair_index(d_l, d_v)]
+        self.values[pair_index(d_l, d_v).index()]
     }
 
     /// Sets ρ(d_l, d_v) and, by construction, ρ(d_v, d_l).
     #[inline]
     pub fn set(&mut self, d_l: DirIndex, d_v: DirIndex, value: Rgb) {
-        self.values[pair_index(d_l, d_v)] = value;
+        self.values[pair_index(d_l, d_v).index()] = value;
     }
 
     /// The stored values in pair order.

@@ -3,8 +3,10 @@
 //! The UI sends [`Command`]s over a crossbeam channel and never waits: the worker drains
 //! everything queued, applies it to the sparse table and the normal equations incrementally,
 //! solves once for the whole batch and publishes a [`Snapshot`] through arc-swap. Changes of
-//! the sparse table itself (for the sparse-only preview and the overlays) go out as
-//! [`BinUpdate`] batches on a second channel, so none is lost when the UI skips snapshots.
+//! the sparse table itself (for the sparse-only preview and the overlays) go out as the
+//! sparse table's own [`BinChange`]s, one per bin and batch, on a second channel, so none is
+//! lost when the UI skips snapshots. They are the UI's only source of observed and
+//! inconsistent bins.
 //!
 //! The worker mirrors what each view says (pixel → linear colour: the painted pixels, or every
 //! object pixel when the view counts unpainted pixels as shown; the app decides), so muting a
@@ -25,10 +27,10 @@ use crate::scene::{GBuffer, Object, Scene, render_table, sample_pixel};
 use crate::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
 };
-use crate::table::SymTable;
+use crate::table::{PairIndex, SymTable};
 use arc_swap::ArcSwap;
 use crossbeam_channel::{Receiver, Sender, TryRecvError, unbounded};
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -160,20 +162,11 @@ pub struct SolveStats {
     pub batch_commands: usize,
 }
 
-/// One sparse-table bin whose value or consistency changed.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BinUpdate {
-    pub pair: u32,
-    /// The bin's value, `None` once it holds no sample.
-    pub value: Option<[f32; 3]>,
-    pub inconsistent: bool,
-}
-
 /// The UI's end of the worker.
 pub struct Worker {
     commands: Sender<Command>,
     snapshot: Arc<ArcSwap<Snapshot>>,
-    bin_updates: Receiver<Vec<BinUpdate>>,
+    bin_updates: Receiver<Vec<BinChange>>,
     analyses: Receiver<Analysis>,
     thread: Option<JoinHandle<()>>,
 }
@@ -220,8 +213,9 @@ impl Worker {
         self.commands.len()
     }
 
-    /// Bin updates published since the last call, oldest first; never blocks.
-    pub fn take_bin_updates(&self) -> Vec<BinUpdate> {
+    /// Bin changes published since the last call, oldest first (each batch's coalesced, see
+    /// [`BinChange::coalesce`]); never blocks.
+    pub fn take_bin_updates(&self) -> Vec<BinChange> {
         self.bin_updates.try_iter().flatten().collect()
     }
 
@@ -269,11 +263,10 @@ struct WorkerState {
     sparse: SparseTable,
     solver: Option<Solver>,
     regularization: Regularization,
-    inconsistent: HashSet<u32>,
     skipped: usize,
     version: u64,
     published: Arc<ArcSwap<Snapshot>>,
-    updates_out: Sender<Vec<BinUpdate>>,
+    updates_out: Sender<Vec<BinChange>>,
     last_stats: SolveStats,
     last_coefficients: Arc<Vec<[f64; 3]>>,
     /// Kept as a table so that a later basis gets its own projection.
@@ -287,14 +280,13 @@ impl WorkerState {
         policy: Policy,
         regularization: Regularization,
         published: Arc<ArcSwap<Snapshot>>,
-        updates_out: Sender<Vec<BinUpdate>>,
+        updates_out: Sender<Vec<BinChange>>,
     ) -> Self {
         Self {
             views: BTreeMap::new(),
             sparse: SparseTable::new(policy),
             solver: None,
             regularization,
-            inconsistent: HashSet::new(),
             skipped: 0,
             version: 0,
             published,
@@ -539,12 +531,7 @@ impl WorkerState {
         let existing: Vec<BinChange> = self
             .sparse
             .observed_bounded()
-            .map(|(pair, value, bounds)| BinChange {
-                pair,
-                before: None,
-                after: Some(value),
-                bounds,
-            })
+            .map(|(pair, value, bounds)| BinChange::observed(pair, value, bounds))
             .collect();
         solver.apply_all(&existing);
         solver.rebuild();
@@ -559,7 +546,7 @@ impl WorkerState {
         batch_commands: usize,
         oldest_input: Option<Instant>,
     ) {
-        let updates = self.bin_updates(changes);
+        let updates = BinChange::coalesce(changes);
         if let Some(solver) = &mut self.solver {
             solver.apply_all(&changes[solver_start..]);
         }
@@ -581,7 +568,7 @@ impl WorkerState {
         self.last_stats = SolveStats {
             samples: self.sparse.sample_count(),
             observed_bins: self.sparse.observed_count(),
-            inconsistent_bins: self.inconsistent.len(),
+            inconsistent_bins: self.sparse.inconsistent_count(),
             skipped_pixels: self.skipped,
             components,
             condition_number,
@@ -604,27 +591,6 @@ impl WorkerState {
                 .and_then(|s| s.prior_mean())
                 .map(|m| Arc::new(m.to_vec())),
         }));
-    }
-
-    /// The bins a batch touched, each once with its final state, in pair order.
-    fn bin_updates(&mut self, changes: &[BinChange]) -> Vec<BinUpdate> {
-        let touched: std::collections::BTreeSet<u32> = changes.iter().map(|c| c.pair).collect();
-        touched
-            .into_iter()
-            .map(|pair| {
-                let inconsistent = self.sparse.is_inconsistent(pair);
-                if inconsistent {
-                    self.inconsistent.insert(pair);
-                } else {
-                    self.inconsistent.remove(&pair);
-                }
-                BinUpdate {
-                    pair,
-                    value: self.sparse.bin_value(pair).map(|v| v.map(|c| c as f32)),
-                    inconsistent,
-                }
-            })
-            .collect()
     }
 }
 
@@ -674,7 +640,7 @@ enum Job {
         base: Box<Scene>,
         object: Arc<Object>,
         candidates: usize,
-        painted: std::collections::BTreeSet<u32>,
+        painted: std::collections::BTreeSet<PairIndex>,
     },
     NoBasis(AnalysisKind),
 }

@@ -61,7 +61,7 @@ pub struct PreviewState {
     /// The coefficients the GPU holds: the snapshot version they came from.
     uploaded_version: Option<u64>,
     /// Sparse bins changed since the GPU copy was last updated.
-    pending_sparse: Vec<(u32, Option<[f32; 3]>)>,
+    pending_sparse: Vec<crate::solver::BinChange>,
     /// The snapshot version the last drawn frame showed.
     pub last_drawn_version: u64,
     /// The basis the GPU holds.
@@ -188,9 +188,9 @@ impl PreviewState {
             .filter(|rgb| rgb.iter().all(|c| c.is_finite())))
     }
 
-    pub fn queue_sparse(&mut self, pair: u32, value: Option<[f32; 3]>) {
+    pub fn queue_sparse(&mut self, changes: Vec<crate::solver::BinChange>) {
         if self.render_state.is_some() {
-            self.pending_sparse.push((pair, value));
+            self.pending_sparse.extend(changes);
         }
     }
 }

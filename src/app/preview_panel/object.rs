@@ -228,7 +228,7 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     if response.double_clicked()
         && let Some(doc) = app.doc.active_view()
     {
-        let scene = doc.scene.clone();
+        let scene = doc.scene().clone();
         let previous = app.preview.clone();
         app.preview = crate::preview::PreviewFrame::from_scene(&scene);
         app.preview.mode = previous.mode;
@@ -263,7 +263,7 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
     let view = app
         .doc
         .active_view()
-        .map(|doc| (doc.id, doc.scene.object.clone(), doc.object.clone()));
+        .map(|doc| (doc.id(), doc.scene().object.clone(), doc.object().clone()));
     let error = app.preview_state.feed(
         &snapshot,
         view.as_ref().map(|(id, name, o)| (*id, name.as_str(), o)),
@@ -291,7 +291,7 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         let view = app
             .doc
             .active_view()
-            .map(|doc| (doc.id, doc.scene.object.clone(), doc.object.clone()));
+            .map(|doc| (doc.id(), doc.scene().object.clone(), doc.object().clone()));
         let error = app.preview_state.feed_compare(
             view.as_ref().map(|(id, name, o)| (*id, name.as_str(), o)),
             table,

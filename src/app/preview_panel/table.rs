@@ -200,10 +200,10 @@ pub(super) fn table_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             let (d_l, d_v) = (y as u16, x as u16);
             let [tl, pl, tv, pv] = bin_pair_angles(d_l, d_v);
             let rho = lookup(d_l, d_v);
-            let pair = pair_index(d_l, d_v) as u32;
-            let state = if app.doc.inconsistent().contains(&pair) {
+            let pair = pair_index(d_l, d_v);
+            let state = if app.doc.is_inconsistent(pair) {
                 " · inconsistent"
-            } else if app.doc.observed().contains_key(&pair) {
+            } else if app.doc.is_observed(pair) {
                 " · observed"
             } else {
                 ""
@@ -267,12 +267,7 @@ fn table_overlay(
         out
     };
     if o.observed {
-        let marks = dilate(pair_marks(
-            app.doc.observed().keys().copied(),
-            window,
-            pixels,
-            pixels,
-        ));
+        let marks = dilate(pair_marks(app.doc.observed(), window, pixels, pixels));
         for (p, m) in image.iter_mut().zip(marks) {
             if m {
                 *p = Color32::from_rgb(60, 220, 90);
@@ -280,12 +275,7 @@ fn table_overlay(
         }
     }
     if o.inconsistent {
-        let marks = dilate(pair_marks(
-            app.doc.inconsistent().iter().copied(),
-            window,
-            pixels,
-            pixels,
-        ));
+        let marks = dilate(pair_marks(app.doc.inconsistent(), window, pixels, pixels));
         for (p, m) in image.iter_mut().zip(marks) {
             if m {
                 *p = Color32::from_rgb(255, 40, 40);

@@ -2,7 +2,7 @@
 
 use super::PreviewRenderer;
 use crate::preview::PreviewError;
-use crate::table::PAIRS;
+use crate::solver::BinChange;
 use half::f16;
 
 /// Changed sparse pairs closer than this are uploaded as one run (8 bytes per pair).
@@ -13,20 +13,14 @@ pub(super) const SPARSE_WORDS: usize = 2;
 const OBSERVED_BITS: u32 = 0x3C00 << 16;
 
 impl PreviewRenderer {
-    /// Sets (`Some(ρ)`) or forgets (`None`) observed bins for sparse mode; only the changed
-    /// runs of the per-pair buffer are uploaded. Values are stored as f16 (ρ above 65504
-    /// shows as 65504).
-    pub fn update_sparse(
-        &mut self,
-        changes: &[(u32, Option<[f32; 3]>)],
-    ) -> Result<(), PreviewError> {
-        for &(pair, value) in changes {
-            if pair as usize >= PAIRS {
-                return Err(PreviewError::Invalid(format!(
-                    "sparse bin pair {pair} is out of range (there are {PAIRS} pairs)"
-                )));
-            }
-            if let Some(rgb) = value
+    /// Sets (`after` is `Some(ρ)`) or forgets (`None`) observed bins for sparse mode, in
+    /// order; only the changed runs of the per-pair buffer are uploaded. Values are stored
+    /// as f16 (ρ above 65504 shows as 65504).
+    pub fn update_sparse(&mut self, changes: &[BinChange]) -> Result<(), PreviewError> {
+        let value = |c: &BinChange| c.after.map(|v| v.map(|x| x as f32));
+        for change in changes {
+            let pair = change.pair;
+            if let Some(rgb) = value(change)
                 && rgb.iter().any(|c| !(c.is_finite() && *c >= 0.0))
             {
                 return Err(PreviewError::Invalid(format!(
@@ -35,9 +29,9 @@ impl PreviewRenderer {
             }
         }
         let mut changed: Vec<usize> = Vec::with_capacity(changes.len());
-        for &(pair, value) in changes {
-            let pair = pair as usize;
-            let words = match value {
+        for change in changes {
+            let pair = change.pair.index();
+            let words = match value(change) {
                 None => [0, 0],
                 Some([r, g, b]) => {
                     let h = |c: f32| f16::from_f32(c.min(f16::MAX.to_f32())).to_bits() as u32;

@@ -226,7 +226,7 @@ impl ScalingReport {
         ));
         for p in self.by_size() {
             out.push_str(&format!(
-                "| {} | {} in {:.0} s | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |\n",
+                "| {} | {} in {:.1} s | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |\n",
                 p.materials,
                 p.basis,
                 p.basis_seconds,
@@ -379,10 +379,11 @@ fn panel(
     } else {
         (x0 / 1.2, x1 * 1.2)
     };
+    // Headroom above the curves for the legend.
     let (y0, y1) = if ys.is_empty() {
         (0.1, 1.0)
     } else {
-        (y0 / 1.3, y1 * 1.3)
+        (y0 / 1.3, y1 * 2.2)
     };
     let font = super::plot::FONT;
     let mut chart = ChartBuilder::on(area)
@@ -390,9 +391,8 @@ fn panel(
         .x_label_area_size(55)
         .y_label_area_size(80)
         .build_cartesian_2d(
-            (x0..x1)
-                .log_scale()
-                .with_key_points(super::plot::ticks(x0, x1)),
+            // The measured sizes and K are the ticks.
+            (x0..x1).log_scale().with_key_points(xs.clone()),
             (y0..y1)
                 .log_scale()
                 .with_key_points(super::plot::ticks(y0, y1)),

@@ -116,7 +116,14 @@ impl Display {
                 }
             }
             if let Ok(Some(status)) = app.0.try_wait() {
-                panic!("burnish exited ({status}):\n{}", read_log(log));
+                // Whether the display still answers tells a dead server from a client that
+                // could not connect (seen once, under a load of 6 on 2 cores).
+                let answers = xdotool_on(&self.name, &["getdisplaygeometry"]).is_some();
+                panic!(
+                    "burnish exited ({status}); display {} answers xdotool: {answers}:\n{}",
+                    self.name,
+                    read_log(log)
+                );
             }
             assert!(
                 Instant::now() < deadline,

@@ -221,9 +221,14 @@ pub fn pareto_png(aggregates: &[Aggregate], subtitle: &str) -> Result<Vec<u8>, S
             .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
+    encode_png(&buffer, WIDTH, HEIGHT)
+}
+
+/// The PNG bytes of a `width × height` RGB buffer a plot was drawn into.
+pub(crate) fn encode_png(buffer: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
-        .write_image(&buffer, WIDTH, HEIGHT, image::ExtendedColorType::Rgb8)
+        .write_image(buffer, width, height, image::ExtendedColorType::Rgb8)
         .map_err(|e| e.to_string())?;
     Ok(png)
 }

@@ -8,7 +8,6 @@ use super::{BenchOptions, BenchReport, Paint, run_bench};
 use crate::basis::BasisCache;
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
-use image::ImageEncoder;
 use plotters::prelude::*;
 use std::io::Write;
 use std::path::Path;
@@ -329,11 +328,7 @@ impl ScalingReport {
             )?;
             root.present().map_err(|e| err(&e))?;
         }
-        let mut png = Vec::new();
-        image::codecs::png::PngEncoder::new(&mut png)
-            .write_image(&buffer, WIDTH, HEIGHT, image::ExtendedColorType::Rgb8)
-            .map_err(|e| e.to_string())?;
-        Ok(png)
+        super::plot::encode_png(&buffer, WIDTH, HEIGHT)
     }
 }
 

@@ -105,12 +105,12 @@ pub struct ScalingPoint {
 
 impl ScalingPoint {
     fn from_report(materials: usize, components: usize, report: &BenchReport) -> Self {
+        let figures = report.key_figures();
         let figure = |key: &str| {
-            report
-                .key_figures()
-                .into_iter()
+            figures
+                .iter()
                 .find(|(k, _)| *k == key)
-                .map_or(f64::NAN, |(_, v)| v)
+                .map_or(f64::NAN, |&(_, v)| v)
         };
         let (basis, basis_seconds) = report
             .bases

@@ -340,6 +340,76 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
     );
 }
 
+/// Clipped bins under the three treatments a calibration can choose: omitted, they leave
+/// the solve as if never painted; as bounds with no step, they are values at the clip; with
+/// steps, the fit may rise above the clip where the rest of the painting asks for it, and
+/// never falls below it by more than it did as a value.
+#[test]
+fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
+    use burnish::solver::{Bound, Censoring, PriorModel};
+    let basis = small_basis(8);
+    let brdf = burnish::materials::models::Lambert {
+        albedo: [0.5, 0.4, 0.3],
+    };
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut lit = Vec::new();
+    for (key, d_l, d_v, rho) in sphere_view_samples(&brdf, 0, 45.0, 30.0, 48) {
+        table.set_sample(key, d_l, d_v, rho, &mut lit).unwrap();
+    }
+    // A highlight the paint clipped: far brighter than the Lambertian rest, so only a bound.
+    let clipped: Vec<PairIndex> = (0..30)
+        .map(|t| burnish::table::pair_index(t * 36 + 3, t * 36 + 21))
+        .collect();
+    let clip = 0.4;
+    let solve = |censoring: Censoring, with_clipped: bool| {
+        let model = PriorModel {
+            censoring,
+            ..PriorModel::CALIBRATED
+        };
+        let mut solver = Solver::with_model(basis.clone(), Regularization::Auto, model);
+        solver.apply_all(&lit);
+        if with_clipped {
+            for &pair in &clipped {
+                solver.apply(&BinChange::observed(pair, [clip; 3], [Bound::AtLeast; 3]));
+            }
+        }
+        let observed = solver.observed_bins();
+        let solution = solver.solve();
+        (
+            observed,
+            Reconstruction::new(basis.clone(), &solution.coefficients),
+        )
+    };
+    let (unclipped_bins, unclipped) = solve(Censoring::OmitClipped, false);
+    let (omitted_bins, omitted) = solve(Censoring::OmitClipped, true);
+    assert_eq!(omitted_bins, unclipped_bins);
+    for &pair in &clipped {
+        assert_eq!(omitted.eval_pair(pair), unclipped.eval_pair(pair));
+    }
+    let (kept_bins, at_clip) = solve(Censoring::Bounds { steps: 0 }, true);
+    assert_eq!(kept_bins, unclipped_bins + clipped.len());
+    let (_, bounded) = solve(Censoring::Bounds { steps: 200 }, true);
+    let mean_shortfall = |r: &Reconstruction| {
+        clipped
+            .iter()
+            .map(|&p| (clip - r.eval_pair(p)[1] as f64).max(0.0))
+            .sum::<f64>()
+            / clipped.len() as f64
+    };
+    assert!(
+        mean_shortfall(&bounded) <= mean_shortfall(&at_clip) + 1e-9,
+        "bounded {} against the clip as a value {}",
+        mean_shortfall(&bounded),
+        mean_shortfall(&at_clip)
+    );
+    assert!(
+        clipped
+            .iter()
+            .any(|&p| (bounded.eval_pair(p)[1] - at_clip.eval_pair(p)[1]).abs() > 1e-6),
+        "200 steps changed nothing"
+    );
+}
+
 /// The band correlation is chosen by the painted bins' evidence only where they can tell:
 /// bins spread over θ_d that one coefficient set explains get the tighter ρ; the same bins
 /// near one knot (one view's slice), or bins whose sets disagree, keep the calibrated one.

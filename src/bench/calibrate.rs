@@ -9,7 +9,9 @@
 //! basis saw, which is what a material an artist paints is to the real basis.
 //!
 //! Candidates are ranked by the geometric mean of the relative RMSE over every (material,
-//! view set) case: scale-free, so a few sharp materials with large errors do not decide alone.
+//! view set, paint) case: scale-free, so a few sharp materials with large errors do not decide
+//! alone. Paint is HDR and 8-bit LDR (clipped highlights, whose bins are bounds), so the
+//! constants of the censored solve ([`Censoring`]) are chosen here too.
 
 use super::VIEWS;
 use crate::basis::{Basis, BasisCache, BasisSpec, build::build_basis_from};
@@ -22,7 +24,8 @@ use crate::scene::{
     samples_from_image_in,
 };
 use crate::solver::{
-    BinChange, KnotSpacing, Policy, PriorModel, Reconstruction, Regularization, Solver, SparseTable,
+    BinChange, Censoring, KnotSpacing, Policy, PriorModel, Reconstruction, Regularization, Solver,
+    SparseTable,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -47,7 +50,7 @@ impl Candidate {
             format!("global α={}", self.alpha)
         } else {
             format!(
-                "bands={} {} ℓ={} α={} ρ={}{} β={} κ={}",
+                "bands={} {} ℓ={} α={} ρ={}{} β={} κ={} {}",
                 m.bands,
                 m.knots.name(),
                 m.band_length,
@@ -55,7 +58,8 @@ impl Candidate {
                 m.band_correlation,
                 if m.correlation_by_evidence { "+ev" } else { "" },
                 m.brightness_exponent,
-                m.brightness_floor
+                m.brightness_floor,
+                m.censoring.name()
             )
         }
     }
@@ -103,6 +107,9 @@ pub struct CalibrateOptions {
     pub tests_per_fold: usize,
     /// Guide resolution of the paintings.
     pub resolution: u32,
+    /// How the test materials are painted: HDR (exact values) and 8-bit LDR (clipped at 1,
+    /// quantised, its clipped bins bounds), each under every view set.
+    pub paints: Vec<PaintRange>,
     pub candidates: Vec<Candidate>,
 }
 
@@ -117,6 +124,7 @@ impl CalibrateOptions {
             components: BasisSpec::DEFAULT_COMPONENTS,
             tests_per_fold: 6,
             resolution: 256,
+            paints: vec![PaintRange::Hdr, PaintRange::Ldr],
             candidates: Grid::standard().candidates(),
         }
     }
@@ -137,6 +145,8 @@ pub struct Grid {
     pub band_lengths: Vec<f64>,
     /// [`PriorModel::correlation_by_evidence`] settings.
     pub correlation_by_evidence: Vec<bool>,
+    /// [`PriorModel::censoring`] settings (they change LDR cases only).
+    pub censoring: Vec<Censoring>,
 }
 
 impl Grid {
@@ -150,6 +160,7 @@ impl Grid {
             knots: vec![KnotSpacing::Uniform],
             band_lengths: vec![0.0],
             correlation_by_evidence: vec![true],
+            censoring: vec![Censoring::CALIBRATED],
         }
     }
 
@@ -171,18 +182,21 @@ impl Grid {
                 for &band_correlation in &self.band_correlations {
                     for &(brightness_exponent, brightness_floor) in &self.brightness {
                         for &correlation_by_evidence in &self.correlation_by_evidence {
-                            candidates.push(Candidate {
-                                alpha,
-                                model: PriorModel {
-                                    band_correlation,
-                                    brightness_exponent,
-                                    brightness_floor,
-                                    knots,
-                                    band_length,
-                                    correlation_by_evidence,
-                                    ..PriorModel::CALIBRATED
-                                },
-                            });
+                            for &censoring in &self.censoring {
+                                candidates.push(Candidate {
+                                    alpha,
+                                    model: PriorModel {
+                                        band_correlation,
+                                        brightness_exponent,
+                                        brightness_floor,
+                                        knots,
+                                        band_length,
+                                        correlation_by_evidence,
+                                        censoring,
+                                        ..PriorModel::CALIBRATED
+                                    },
+                                });
+                            }
                         }
                     }
                 }
@@ -203,6 +217,11 @@ pub struct CandidateScore {
     pub mean_relative_rmse_3view: f64,
     pub median_relative_rmse_3view: f64,
     pub mean_log_rmse: f64,
+    /// The same four figures for 8-bit LDR paint (NaN when the run paints no LDR).
+    pub mean_relative_rmse_1view_ldr: f64,
+    pub median_relative_rmse_1view_ldr: f64,
+    pub mean_relative_rmse_3view_ldr: f64,
+    pub median_relative_rmse_3view_ldr: f64,
     /// Cases where three views are more than 10% worse than the first of them alone.
     pub views_hurt: usize,
     /// (material, one-and-three-view arrangement) pairs.
@@ -267,19 +286,24 @@ fn fold_basis(
     Ok(Arc::new(basis))
 }
 
-/// The bin changes of a perfect painter's renders of `truth` under each view set.
+/// The bin changes of a perfect painter's renders of `truth` under each (paint, view set)
+/// arrangement.
 fn paint_view_sets(
     truth: &crate::table::SymTable,
-    gbuffers: &[Vec<GBuffer>],
+    arrangements: &[(PaintRange, &[GBuffer])],
 ) -> Vec<Vec<BinChange>> {
-    gbuffers
+    arrangements
         .iter()
-        .map(|set| {
+        .map(|&(paint, set)| {
             let mut table = SparseTable::new(Policy::Mean);
             let mut changes = Vec::new();
             for (view, gbuffer) in set.iter().enumerate() {
-                let painting = render_table(gbuffer, truth);
-                samples_from_image_in(gbuffer, &painting, PaintRange::Hdr)
+                let render = render_table(gbuffer, truth);
+                let painting = match paint {
+                    PaintRange::Hdr => render,
+                    PaintRange::Ldr => super::ldr_round_trip(&render),
+                };
+                samples_from_image_in(gbuffer, &painting, paint)
                     .insert_into(view as u32, &mut table, &mut changes)
                     .expect("a render of a physical table is finite and non-negative");
             }
@@ -316,7 +340,18 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
                 .collect()
         })
         .collect();
-    // errors[candidate][case][view set] = (relative RMSE, log RMSE)
+    // Paint-major, so that each paint's sets still come in (one view, three views) pairs.
+    let arrangements: Vec<(PaintRange, &[GBuffer])> = options
+        .paints
+        .iter()
+        .flat_map(|&paint| gbuffers.iter().map(move |set| (paint, set.as_slice())))
+        .collect();
+    let arranged_sets: Vec<(PaintRange, usize)> = options
+        .paints
+        .iter()
+        .flat_map(|&paint| sets.iter().map(move |set| (paint, set.len())))
+        .collect();
+    // errors[candidate][case][arrangement] = (relative RMSE, log RMSE)
     let mut errors: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::new(); options.candidates.len()];
     let mut folds = Vec::new();
     for fold in 0..options.folds {
@@ -327,7 +362,7 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
         for index in tests {
             let m = material(CALIBRATION_SEED, index);
             let truth = tabulate(&*m.brdf);
-            let painted = paint_view_sets(&truth, &gbuffers);
+            let painted = paint_view_sets(&truth, &arrangements);
             let per_candidate: Vec<Vec<(f64, f64)>> = options
                 .candidates
                 .par_iter()
@@ -366,7 +401,7 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
         .candidates
         .iter()
         .zip(&errors)
-        .map(|(&candidate, cases)| score(candidate, cases, &sets))
+        .map(|(&candidate, cases)| score(candidate, cases, &arranged_sets))
         .collect();
     scores.sort_by(|a, b| {
         a.geometric_mean_relative_rmse
@@ -379,26 +414,25 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
     })
 }
 
+/// `arrangements`: the paint and the number of views of each case's entries.
 fn score(
     candidate: Candidate,
     cases: &[Vec<(f64, f64)>],
-    sets: &[Vec<ViewAngles>],
+    arrangements: &[(PaintRange, usize)],
 ) -> CandidateScore {
-    let (mut one, mut three, mut logs, mut ln_sum, mut n) = (vec![], vec![], vec![], 0.0, 0.0f64);
+    let (mut logs, mut ln_sum, mut n) = (vec![], 0.0, 0.0f64);
+    // By (LDR, three views).
+    let mut by_kind: [[Vec<f64>; 2]; 2] = Default::default();
     let mut views_hurt = 0;
     let mut comparisons = 0;
     for case in cases {
-        for (set, &(rel, log)) in sets.iter().zip(case) {
+        for (&(paint, views), &(rel, log)) in arrangements.iter().zip(case) {
             // A table that blew up counts as 3: it ranks last without drowning the mean.
             let rel = if rel.is_finite() { rel.min(3.0) } else { 3.0 };
             ln_sum += rel.max(1e-6).ln();
             n += 1.0;
             logs.push(log);
-            if set.len() == 1 {
-                one.push(rel);
-            } else {
-                three.push(rel);
-            }
+            by_kind[usize::from(paint == PaintRange::Ldr)][usize::from(views > 1)].push(rel);
         }
         // Sets come in (one view, the same first view plus two) pairs.
         for pair in case.chunks(2) {
@@ -408,14 +442,25 @@ fn score(
             }
         }
     }
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    let [[hdr_one, hdr_three], [ldr_one, ldr_three]] = &mut by_kind;
     CandidateScore {
         candidate,
         geometric_mean_relative_rmse: (ln_sum / n.max(1.0)).exp(),
-        mean_relative_rmse_1view: mean(&one),
-        median_relative_rmse_1view: median(&mut one),
-        mean_relative_rmse_3view: mean(&three),
-        median_relative_rmse_3view: median(&mut three),
+        mean_relative_rmse_1view: mean(hdr_one),
+        median_relative_rmse_1view: median(hdr_one),
+        mean_relative_rmse_3view: mean(hdr_three),
+        median_relative_rmse_3view: median(hdr_three),
+        mean_relative_rmse_1view_ldr: mean(ldr_one),
+        median_relative_rmse_1view_ldr: median(ldr_one),
+        mean_relative_rmse_3view_ldr: mean(ldr_three),
+        median_relative_rmse_3view_ldr: median(ldr_three),
         mean_log_rmse: mean(&logs),
         views_hurt,
         comparisons,
@@ -486,6 +531,7 @@ mod tests {
             components: 8,
             tests_per_fold: 1,
             resolution: 64,
+            paints: vec![PaintRange::Hdr, PaintRange::Ldr],
             candidates: vec![
                 Candidate { alpha: 1e4, ..sane },
                 sane,
@@ -500,8 +546,11 @@ mod tests {
         assert_eq!(c.scores.len(), 3);
         assert_eq!(c.scores[0].candidate, sane, "{:#?}", c.scores);
         for s in &c.scores {
-            assert_eq!(s.comparisons, 2 * 2);
+            // 2 folds × 1 material × 2 arrangements of lights × 2 paints.
+            assert_eq!(s.comparisons, 2 * 2 * 2);
             assert!(s.geometric_mean_relative_rmse.is_finite());
+            assert!(s.mean_relative_rmse_1view_ldr.is_finite());
+            assert!(s.median_relative_rmse_3view_ldr.is_finite());
         }
     }
 }

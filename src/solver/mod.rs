@@ -9,7 +9,7 @@ pub mod ridge;
 pub mod sparse;
 
 pub use bands::{BANDS, BandWeights, DEFAULT_KNOTS, KnotSpacing, pair_bands, pair_bands_spaced};
-pub use prior::{DEFAULT_ALPHA, EVIDENCE_BAND_CORRELATIONS, PriorModel, Regularization};
+pub use prior::{Censoring, DEFAULT_ALPHA, EVIDENCE_BAND_CORRELATIONS, PriorModel, Regularization};
 pub use reconstruction::Reconstruction;
 pub use ridge::{Posterior, Solution, Solver};
 pub use sparse::{BinChange, Bound, Bounds, EXACT, Policy, SampleKey, SampleRejected, SparseTable};

@@ -49,13 +49,13 @@
 //! alone, never on the order they were painted in).
 //!
 //! **Censored bins** (clipped LDR paint) are bounds, solved for by majorise–minimise (at most
-//! `MM_STEPS` steps). An upper bound that maps to a narrow interval (a black 8-bit pixel)
+//! [`Censoring::CALIBRATED`] steps). An upper bound that maps to a narrow interval (a black 8-bit pixel)
 //! counts as a value instead (`Solver::pin_narrow_bounds`).
 
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
 use super::prior::EVIDENCE_BAND_CORRELATIONS;
-pub use super::prior::{DEFAULT_ALPHA, PriorModel, Regularization};
+pub use super::prior::{Censoring, DEFAULT_ALPHA, PriorModel, Regularization};
 use super::sparse::{BinChange, Bound, Bounds, EXACT};
 use crate::basis::{Basis, map_value};
 use crate::table::{PairIndex, cos_theta_centre, pair_directions};
@@ -67,14 +67,6 @@ use std::sync::Arc;
 /// The widest mapped interval an upper bound may span and still count as a value (see
 /// `Solver::pin_narrow_bounds`): a tenth of a log unit, far below the noise √α.
 const NARROW_BOUND_WIDTH: f64 = 0.1;
-
-/// Majorise–minimise steps for the bounds of clipped paint. The steps stop short of the
-/// optimum on sharp highlights, and that is kept on purpose: on the calibration folds, one 8-bit
-/// view's mean relative RMSE is 0.544 after 200 steps and 0.72 at convergence (a sharp Phong
-/// lobe, free above its clipped bins, overshoots to 3.8 where 200 steps leave 1.0). Replacing
-/// the bounds by exact values at the clip (0.566) or pushing them up by the censored normal's
-/// mean (Tobit, 0.83 and worse) did not do better.
-const MM_STEPS: usize = 200;
 
 /// How much more likely (in nats of marginal likelihood) the painted bins must be under a
 /// stronger band correlation than under the configured one for the solve to take it: about
@@ -269,7 +261,9 @@ impl Solver {
     pub fn apply(&mut self, change: &BinChange) {
         let pair = change.pair;
         let d = self.dimension();
+        let clipped = change.bounds.contains(&Bound::AtLeast);
         let (after, bounds) = match change.after {
+            Some(_) if clipped && self.model.censoring == Censoring::OmitClipped => (None, EXACT),
             Some(rho) => {
                 let (rho, bounds) = self.pin_narrow_bounds(pair, rho, change.bounds);
                 (Some(rho), bounds)
@@ -686,11 +680,14 @@ impl Solver {
         solve: impl Fn(&Mat<f64>) -> Mat<f64>,
     ) {
         const TOLERANCE: f64 = 1e-10;
+        let Censoring::Bounds { steps } = self.model.censoring else {
+            return;
+        };
         if self.censored.is_empty() {
             return;
         }
         let k = self.basis.components();
-        for _ in 0..MM_STEPS {
+        for _ in 0..steps {
             let mut shifted = rhs.clone();
             for pair in &self.censored {
                 let obs = &self.observed[pair];

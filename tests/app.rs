@@ -1109,7 +1109,7 @@ fn bad_files_the_app_reads_change_nothing() {
     std::fs::write(&exr, &bytes[..bytes.len() / 2]).unwrap();
 
     harness.state_mut().clear_notices();
-    let mut scene = session.views[0].scene.clone();
+    let mut scene = session.views[0].settings.scene.clone();
     scene.object = obj.to_string_lossy().into_owned();
     let err = harness
         .state_mut()

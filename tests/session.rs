@@ -63,7 +63,7 @@ fn two_view_session(mesh_dir: &Path) -> Session {
     scene.camera.yaw_deg = 33.3;
     scene.camera.pitch_deg = -10.0;
     let mut mesh = SessionView::new("Tetra · side", scene).unwrap();
-    mesh.muted = true;
+    mesh.settings.muted = true;
     paint(&mut mesh, 2);
     Session {
         views: vec![sphere, mesh],
@@ -150,7 +150,7 @@ fn save_then_open_reproduces_the_session_exactly() {
     assert_eq!(opened, session);
     assert_eq!(bits(&opened), bits(&session));
     // The original object is still there and unchanged: it is used, nothing is extracted.
-    assert_eq!(opened.views[1].scene.object, "meshes/tetra.obj");
+    assert_eq!(opened.views[1].settings.scene.object, "meshes/tetra.obj");
     assert!(!cache.exists());
 
     // Saving what was opened writes the same session again.
@@ -172,8 +172,8 @@ fn new_views_and_the_default_session_are_unpainted() {
     assert_eq!(session.basis.regularization, Regularization::Auto);
     assert_eq!(session.basis.policy, Policy::Mean);
     let view = &session.views[0];
-    assert_eq!(view.scene, Scene::default());
-    assert!(!view.muted);
+    assert_eq!(view.settings.scene, Scene::default());
+    assert!(!view.settings.muted);
     assert_eq!(
         (view.paint.colour.width, view.paint.colour.height),
         (512, 512)
@@ -457,7 +457,7 @@ fn a_failed_save_leaves_the_old_file_intact() {
 
     // A good save replaces the file.
     let mut changed = session.clone();
-    changed.views[0].name = "Renamed".into();
+    changed.views[0].settings.name = "Renamed".into();
     changed.save(&path).unwrap();
     assert_eq!(Session::open(&path).unwrap(), changed);
 }
@@ -479,24 +479,27 @@ fn the_embedded_object_is_used_when_the_original_is_gone_or_changed() {
     let moved = Session::open_with_object_cache(&path, &cache).unwrap();
 
     for opened in [&changed, &moved] {
-        let scene = &opened.views[1].scene;
+        let scene = &opened.views[1].settings.scene;
         let object = PathBuf::from(&scene.object);
         assert!(object.is_absolute() && object.starts_with(std::path::absolute(&cache).unwrap()));
         assert_eq!(object.file_name().unwrap(), "tetra.obj");
         assert_eq!(std::fs::read_to_string(&object).unwrap(), TETRAHEDRON);
         // Everything but the object's path is as saved, and the scene's object loads.
         let mut expected = session.clone();
-        expected.views[1].scene.object = scene.object.clone();
+        expected.views[1].settings.scene.object = scene.object.clone();
         assert_eq!(opened, &expected);
         Object::load(&scene.object_source()).unwrap();
     }
-    assert_eq!(changed.views[1].scene.object, moved.views[1].scene.object);
+    assert_eq!(
+        changed.views[1].settings.scene.object,
+        moved.views[1].settings.scene.object
+    );
 
     // The guide of the reopened view is the one the painting was made over.
-    let reopened = SessionView::new("again", moved.views[1].scene.clone()).unwrap();
+    let reopened = SessionView::new("again", moved.views[1].settings.scene.clone()).unwrap();
     let unpainted = SessionView::new("first", {
-        let mut scene = session.views[1].scene.clone();
-        scene.object = moved.views[1].scene.object.clone();
+        let mut scene = session.views[1].settings.scene.clone();
+        scene.object = moved.views[1].settings.scene.object.clone();
         scene
     })
     .unwrap();
@@ -516,7 +519,7 @@ fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
     let snapshots = Cell::new(0);
     let snapshot = |name: &str| {
         let mut s = session.clone();
-        s.views[0].name = name.into();
+        s.views[0].settings.name = name.into();
         snapshots.set(snapshots.get() + 1);
         s
     };
@@ -529,6 +532,7 @@ fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
             .open()
             .unwrap()
             .views[0]
+            .settings
             .name
             .clone()
     };
@@ -574,7 +578,7 @@ fn autosave_writes_finished_edits_at_once_and_long_ones_within_the_delay() {
     autosaver.flush().unwrap();
     assert_eq!(snapshots.get(), 3);
     let mut expected = session.clone();
-    expected.views[0].name = "later".into();
+    expected.views[0].settings.name = "later".into();
     assert_eq!(info.open().unwrap(), expected);
 
     autosaver.discard().unwrap();
@@ -749,7 +753,7 @@ fn a_read_only_folder_refuses_the_save_and_keeps_the_old_file() {
     session.save(&path).unwrap();
     let before = std::fs::read(&path).unwrap();
     let mut changed = session.clone();
-    changed.views[0].name = "Changed".into();
+    changed.views[0].settings.name = "Changed".into();
 
     let (save, autosave) = read_only::with_read_only_dir(&folder, || {
         let save = changed.save(&path).unwrap_err().to_string();

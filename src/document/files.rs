@@ -8,7 +8,7 @@ use crate::export::{ExportOptions, Format, export, load_table};
 use crate::image_io::RgbImage;
 use crate::paint::BrushSettings;
 use crate::scene::{GBuffer, Scene, render_table, write_png};
-use crate::session::{BasisSettings, Session, SessionView, StartMaterial};
+use crate::session::{BasisSettings, Session, StartMaterial, ViewSettings};
 use crate::solver::Reconstruction;
 use crate::table::merl::MerlBrdf;
 use crate::worker::{Command, ViewId};
@@ -21,18 +21,7 @@ impl Document {
     /// basis settings.
     pub fn to_session(&self, brush: &BrushSettings) -> Session {
         Session {
-            views: self
-                .views
-                .iter()
-                .map(|v| SessionView {
-                    name: v.name.clone(),
-                    scene: v.scene.clone(),
-                    muted: v.muted,
-                    paint: v.canvas.layers().clone(),
-                    unpainted: v.unpainted,
-                    base: v.prediction().cloned(),
-                })
-                .collect(),
+            views: self.views.iter().map(ViewDoc::to_saved).collect(),
             active_view: self.active,
             brush: brush.clone(),
             basis: self.basis_settings,
@@ -46,15 +35,7 @@ impl Document {
         let first_id = self.next_view_id;
         let mut docs = Vec::with_capacity(session.views.len());
         for (i, view) in session.views.into_iter().enumerate() {
-            docs.push(ViewDoc::with_paint(
-                first_id + i as u32,
-                view.name,
-                view.scene,
-                view.paint,
-                view.muted,
-                view.unpainted,
-                view.base,
-            )?);
+            docs.push(ViewDoc::from_saved(first_id + i as u32, view)?);
         }
         self.install_views(docs, session.active_view, session.start, session.basis);
         Ok(session.brush)
@@ -80,7 +61,7 @@ impl Document {
             });
             self.worker.send(Command::MuteView {
                 view: doc.id,
-                muted: doc.muted,
+                muted: doc.settings.muted,
             });
             self.worker.send(Command::ReplacePaint {
                 view: doc.id,
@@ -116,7 +97,8 @@ impl Document {
     /// (the brush is the UI's).
     pub fn new_session(&mut self) -> crate::Result<()> {
         // Installed as it is: a round trip through a saved session would trace it again.
-        let view = ViewDoc::new(self.next_view_id, "View 1".into(), Scene::default())?;
+        let settings = ViewSettings::new("View 1", Scene::default());
+        let view = ViewDoc::new(self.next_view_id, settings)?;
         self.install_views(vec![view], 0, None, self.basis_settings);
         self.session_path = None;
         self.dirty = false;

@@ -19,7 +19,7 @@ pub use view::{Base, ViewDoc, object_mask, propose_view};
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::paint::{BrushKind, BrushSettings, Canvas, CanvasChanges, PixelRect, UnpaintedPixels};
 use crate::scene::Scene;
-use crate::session::{Autosaver, BasisSettings, RecoveryInfo, StartMaterial};
+use crate::session::{Autosaver, BasisSettings, RecoveryInfo, StartMaterial, ViewSettings};
 use crate::solver::BinChange;
 use crate::table::{PairIndex, SymTable};
 use crate::worker::{Analysis, AnalysisKind, Command, Snapshot, ViewId, Worker};
@@ -354,7 +354,7 @@ impl Document {
     /// Adds a view of `scene` and makes it active.
     pub fn add_view(&mut self, scene: Scene) -> crate::Result<()> {
         let id = self.next_view_id;
-        let doc = ViewDoc::new(id, format!("View {}", id + 1), scene)?;
+        let doc = ViewDoc::new(id, ViewSettings::new(format!("View {}", id + 1), scene))?;
         self.next_view_id += 1;
         self.worker.send(Command::SetView {
             view: id,
@@ -384,9 +384,9 @@ impl Document {
 
     /// Adds a view whose light and camera differ from the existing views' (not a copy).
     pub fn add_proposed_view(&mut self) -> crate::Result<()> {
-        let existing: Vec<Scene> = self.views.iter().map(|v| v.scene.clone()).collect();
+        let existing: Vec<Scene> = self.views.iter().map(|v| v.scene().clone()).collect();
         let scene = match self.active_view() {
-            Some(active) => propose_view(&active.scene, &existing),
+            Some(active) => propose_view(active.scene(), &existing),
             None => Scene::default(),
         };
         self.add_view(scene)
@@ -406,7 +406,7 @@ impl Document {
 
     pub fn set_muted(&mut self, index: usize, muted: bool) {
         if let Some(doc) = self.views.get_mut(index) {
-            doc.muted = muted;
+            doc.settings.muted = muted;
             self.worker.send(Command::MuteView {
                 view: doc.id,
                 muted,
@@ -537,7 +537,7 @@ impl Document {
         let Some(doc) = self.active_view() else {
             return;
         };
-        let (base, object) = (Box::new(doc.scene.clone()), doc.object.clone());
+        let (base, object) = (Box::new(doc.scene().clone()), doc.object.clone());
         let request = self.next_request;
         self.next_request += 1;
         self.worker.send(Command::RankViews {
@@ -582,10 +582,10 @@ impl Document {
         let Some(doc) = self.views.get_mut(index) else {
             return;
         };
-        if doc.unpainted == rule {
+        if doc.settings.unpainted == rule {
             return;
         }
-        doc.unpainted = rule;
+        doc.settings.unpainted = rule;
         self.worker.send(Command::ReplacePaint {
             view: doc.id,
             painted: doc.counted_pixels(),

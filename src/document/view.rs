@@ -3,6 +3,7 @@
 use crate::image_io::RgbImage;
 use crate::paint::{Canvas, PaintLayers, UnpaintedPixels};
 use crate::scene::{GBuffer, Object, Scene, guide_image};
+use crate::session::{SessionView, ViewSettings};
 use crate::worker::ViewId;
 use std::sync::Arc;
 
@@ -15,67 +16,66 @@ pub enum Base {
     Prediction,
 }
 
-/// One view: a scene (object, light, camera), its geometry buffer and its canvas. The
-/// document changes it (so that the worker hears of every change); others read it.
+/// One view: its settings (name, scene, mute flag, unpainted rule, as sessions save them),
+/// the object and geometry buffer its scene makes, and its canvas. The document changes it
+/// (so that the worker hears of every change); others read it.
 pub struct ViewDoc {
     pub(super) id: ViewId,
-    pub(super) name: String,
-    pub(super) scene: Scene,
+    pub(super) settings: ViewSettings,
     pub(super) object: Arc<Object>,
     pub(super) gbuffer: Arc<GBuffer>,
     /// The scene's grey diffuse guide: a fresh canvas's base, and the reference layer.
     pub(super) guide: RgbImage,
     pub(super) canvas: Canvas,
-    pub(super) muted: bool,
-    /// What the pixels the artist did not paint say.
-    pub(super) unpainted: UnpaintedPixels,
     base: Base,
 }
 
 impl ViewDoc {
-    /// A new, unpainted view of `scene` over its guide.
-    pub fn new(id: ViewId, name: String, scene: Scene) -> crate::Result<Self> {
-        let object = Arc::new(Object::load(&scene.object_source())?);
-        let gbuffer = Arc::new(GBuffer::build(&scene, &object));
+    /// A new, unpainted view of its settings' scene over its guide.
+    pub fn new(id: ViewId, settings: ViewSettings) -> crate::Result<Self> {
+        let object = Arc::new(Object::load(&settings.scene.object_source())?);
+        let gbuffer = Arc::new(GBuffer::build(&settings.scene, &object));
         let guide = guide_image(&gbuffer);
         let mask = object_mask(&gbuffer);
         Ok(Self {
             id,
-            name,
-            scene,
+            settings,
             object,
             gbuffer,
             canvas: Canvas::new(guide.clone(), mask),
             guide,
-            muted: false,
-            unpainted: UnpaintedPixels::default(),
             base: Base::Guide,
         })
     }
 
-    /// A view with saved paint (session open, recovery) over its guide, or over a saved
-    /// prediction.
-    pub fn with_paint(
-        id: ViewId,
-        name: String,
-        scene: Scene,
-        layers: PaintLayers,
-        muted: bool,
-        unpainted: UnpaintedPixels,
-        prediction: Option<RgbImage>,
-    ) -> crate::Result<Self> {
-        let mut doc = Self::new(id, name, scene)?;
-        let base = prediction.clone().unwrap_or_else(|| doc.guide.clone());
-        doc.canvas = Canvas::from_layers(base, object_mask(&doc.gbuffer), layers)
-            .map_err(|e| paint_error(&doc.name, e))?;
-        doc.muted = muted;
-        doc.unpainted = unpainted;
+    /// A view opened from a session (a file, or recovery): its settings move in, and its
+    /// paint goes over its guide, or over its saved prediction.
+    pub fn from_saved(id: ViewId, saved: SessionView) -> crate::Result<Self> {
+        let SessionView {
+            settings,
+            paint,
+            base: prediction,
+        } = saved;
+        let mut doc = Self::new(id, settings)?;
         doc.base = if prediction.is_some() {
             Base::Prediction
         } else {
             Base::Guide
         };
+        let base = prediction.unwrap_or_else(|| doc.guide.clone());
+        doc.canvas = Canvas::from_layers(base, object_mask(&doc.gbuffer), paint)
+            .map_err(|e| paint_error(&doc.settings.name, e))?;
         Ok(doc)
+    }
+
+    /// The view as a session file holds it: its settings, its paint and the prediction
+    /// under it, if any.
+    pub fn to_saved(&self) -> SessionView {
+        SessionView {
+            settings: self.settings.clone(),
+            paint: self.canvas.layers().clone(),
+            base: self.prediction().cloned(),
+        }
     }
 
     pub fn id(&self) -> ViewId {
@@ -83,11 +83,11 @@ impl ViewDoc {
     }
 
     pub fn name(&self) -> &str {
-        &self.name
+        &self.settings.name
     }
 
     pub fn scene(&self) -> &Scene {
-        &self.scene
+        &self.settings.scene
     }
 
     pub fn object(&self) -> &Arc<Object> {
@@ -111,12 +111,12 @@ impl ViewDoc {
 
     /// A muted view keeps its paint but gives no samples.
     pub fn muted(&self) -> bool {
-        self.muted
+        self.settings.muted
     }
 
     /// What the pixels the artist did not paint say.
     pub fn unpainted(&self) -> UnpaintedPixels {
-        self.unpainted
+        self.settings.unpainted
     }
 
     /// What the canvas shows under the paint.
@@ -133,7 +133,7 @@ impl ViewDoc {
     pub fn set_prediction(&mut self, image: RgbImage) -> crate::Result<()> {
         self.canvas
             .set_base(image)
-            .map_err(|e| paint_error(&self.name, e))?;
+            .map_err(|e| paint_error(&self.settings.name, e))?;
         self.base = Base::Prediction;
         Ok(())
     }
@@ -153,7 +153,7 @@ impl ViewDoc {
     /// (a prediction was made for the old scene: the caller may ask for a new one).
     /// Undo history starts over, since old strokes refer to the old base.
     pub fn set_scene(&mut self, scene: Scene) -> crate::Result<()> {
-        let object = if scene.object_source() == self.scene.object_source() {
+        let object = if scene.object_source() == self.settings.scene.object_source() {
             self.object.clone()
         } else {
             Arc::new(Object::load(&scene.object_source())?)
@@ -175,10 +175,10 @@ impl ViewDoc {
             PaintLayers::unpainted(&guide)
         };
         self.canvas = Canvas::from_layers(guide.clone(), mask, layers)
-            .map_err(|e| paint_error(&self.name, e))?;
+            .map_err(|e| paint_error(&self.settings.name, e))?;
         self.guide = guide;
         self.base = Base::Guide;
-        self.scene = scene;
+        self.settings.scene = scene;
         self.object = object;
         self.gbuffer = gbuffer;
         Ok(())
@@ -197,7 +197,7 @@ impl ViewDoc {
         }
         self.canvas
             .replace_layers(layers)
-            .map_err(|e| paint_error(&self.name, e))?;
+            .map_err(|e| paint_error(&self.settings.name, e))?;
         // The caller hands the worker the whole painting at once; undo still sees the edit.
         drop(self.canvas.take_changes());
         Ok(())
@@ -208,7 +208,7 @@ impl ViewDoc {
     pub fn counted_pixels(&self) -> Vec<(u32, [f32; 3])> {
         self.canvas
             .layers()
-            .counted_pixels(self.unpainted, self.canvas.object_mask())
+            .counted_pixels(self.settings.unpainted, self.canvas.object_mask())
     }
 
     /// What pixel `pixel` says after a change whose painted state is `painted` (`None`:
@@ -216,7 +216,8 @@ impl ViewDoc {
     pub fn statement(&self, pixel: u32, painted: Option<[f32; 3]>) -> Option<[f32; 3]> {
         let i = pixel as usize;
         painted.or_else(|| {
-            self.unpainted
+            self.settings
+                .unpainted
                 .counts(self.canvas.object_mask()[i], false)
                 .then(|| self.canvas.base().pixels[i])
         })

@@ -22,7 +22,9 @@
 //!   used where it holds these very bytes; otherwise the copy is extracted to
 //!   [`object_cache_dir`]`/<hash>/<file name>` and the scene's `object` becomes that path.
 
-use super::{BasisSettings, Session, SessionView, StartMaterial, check_colour, check_coverage};
+use super::{
+    BasisSettings, Session, SessionView, StartMaterial, ViewSettings, check_colour, check_coverage,
+};
 use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
 use crate::image_io::RgbImage;
@@ -223,10 +225,10 @@ pub(crate) fn write_session(
             .views
             .iter()
             .map(|v| ViewManifest {
-                name: v.name.clone(),
-                muted: v.muted,
-                base_dir: v.scene.base_dir.to_string_lossy().into_owned(),
-                unpainted: Some(v.unpainted.name().to_string()),
+                name: v.settings.name.clone(),
+                muted: v.settings.muted,
+                base_dir: v.settings.scene.base_dir.to_string_lossy().into_owned(),
+                unpainted: Some(v.settings.unpainted.name().to_string()),
             })
             .collect(),
     };
@@ -236,15 +238,19 @@ pub(crate) fn write_session(
     // Everything that can fail for reasons other than the disk happens before the write.
     let mut entries: Vec<(String, Vec<u8>)> = vec![(MANIFEST.into(), manifest.into_bytes())];
     for (i, view) in session.views.iter().enumerate() {
-        entries.push((entry(i, "scene.toml"), view.scene.to_toml().into_bytes()));
-        if let ObjectSource::Obj(object) = view.scene.object_source() {
+        let settings = &view.settings;
+        entries.push((
+            entry(i, "scene.toml"),
+            settings.scene.to_toml().into_bytes(),
+        ));
+        if let ObjectSource::Obj(object) = settings.scene.object_source() {
             let bytes = std::fs::read(&object).map_err(|e| {
                 Error::invalid(
                     path,
                     format!(
                         "not saved: view {} ({:?}): its object {} can't be read to embed it: {e}",
                         i + 1,
-                        view.name,
+                        settings.name,
                         object.display()
                     ),
                 )
@@ -261,7 +267,10 @@ pub(crate) fn write_session(
                 (entry(i, "colour.exr"), encode_colour(&view.paint.colour)),
                 (
                     entry(i, "coverage.exr"),
-                    encode_coverage(&view.paint.coverage, view.scene.resolution as usize),
+                    encode_coverage(
+                        &view.paint.coverage,
+                        view.settings.scene.resolution as usize,
+                    ),
                 ),
             ]
             .into_iter()
@@ -394,11 +403,13 @@ fn read_archive<R: Read + Seek>(
             ObjectSource::Builtin(_) => None,
         });
         views.push(SessionView {
-            name: view.name.clone(),
-            scene,
-            muted: view.muted,
+            settings: ViewSettings {
+                name: view.name.clone(),
+                scene,
+                muted: view.muted,
+                unpainted,
+            },
             paint: PaintLayers { colour, coverage },
-            unpainted,
             base,
         });
     }
@@ -437,11 +448,12 @@ fn read_archive<R: Read + Seek>(
     // Only a valid file gets its objects extracted.
     let mut session = session;
     for (view, embedded) in session.views.iter_mut().zip(embedded_objects) {
-        if let (Some(bytes), ObjectSource::Obj(original)) = (embedded, view.scene.object_source())
+        let scene = &mut view.settings.scene;
+        if let (Some(bytes), ObjectSource::Obj(original)) = (embedded, scene.object_source())
             && !holds_bytes(&original, &bytes)
         {
             let extracted = extract_object(&object_cache()?, &original, &bytes)?;
-            view.scene.object = extracted.to_string_lossy().into_owned();
+            scene.object = extracted.to_string_lossy().into_owned();
         }
     }
     Ok((session, manifest.session_path.map(PathBuf::from)))

@@ -55,17 +55,38 @@ impl std::fmt::Debug for StartMaterial {
     }
 }
 
-/// One view: a scene and the painting over its guide.
+/// What a view is, apart from its painting: its name, scene, mute flag and unpainted rule.
+/// The live document's view holds this very value, so that saving copies it whole and
+/// opening moves it in, rather than each side keeping fields of its own.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SessionView {
+pub struct ViewSettings {
     pub name: String,
     pub scene: Scene,
     /// A muted view keeps its painting but gives no samples.
     pub muted: bool,
-    /// `scene.resolution²` pixels.
-    pub paint: PaintLayers,
     /// What the pixels the artist did not paint say.
     pub unpainted: UnpaintedPixels,
+}
+
+impl ViewSettings {
+    /// An unmuted view of `scene` under the default unpainted rule.
+    pub fn new(name: impl Into<String>, scene: Scene) -> Self {
+        Self {
+            name: name.into(),
+            scene,
+            muted: false,
+            unpainted: UnpaintedPixels::default(),
+        }
+    }
+}
+
+/// One view as a session file holds it: its settings and the painting over its guide (in
+/// the live document the canvas holds the painting, with its undo history).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionView {
+    pub settings: ViewSettings,
+    /// `scene.resolution²` pixels.
+    pub paint: PaintLayers,
     /// What the canvas shows under the paint when it is a prediction of the BRDF (`None`:
     /// the scene's guide), `scene.resolution²` pixels.
     pub base: Option<crate::image_io::RgbImage>,
@@ -101,11 +122,8 @@ impl SessionView {
         let object = Object::load(&scene.object_source())?;
         let guide = guide_image(&GBuffer::build(&scene, &object));
         Ok(Self {
-            name: name.into(),
-            scene,
-            muted: false,
+            settings: ViewSettings::new(name, scene),
             paint: PaintLayers::unpainted(&guide),
-            unpainted: UnpaintedPixels::default(),
             base: None,
         })
     }
@@ -144,7 +162,7 @@ impl Session {
         check_basis(&self.basis).map_err(|p| format!("basis: {p}"))?;
         for (i, view) in self.views.iter().enumerate() {
             view.check()
-                .map_err(|p| format!("view {} ({:?}): {p}", i + 1, view.name))?;
+                .map_err(|p| format!("view {} ({:?}): {p}", i + 1, view.settings.name))?;
         }
         if let Some(start) = &self.start
             && !start.table.is_physical()
@@ -161,8 +179,8 @@ impl Session {
 impl SessionView {
     /// The scene in range and the painting the scene's size, finite, coverage in [0, 1].
     pub fn check(&self) -> std::result::Result<(), String> {
-        self.scene.check()?;
-        let side = self.scene.resolution as usize;
+        self.settings.scene.check()?;
+        let side = self.settings.scene.resolution as usize;
         check_colour(&self.paint.colour, side)?;
         if let Some(base) = &self.base {
             check_colour(base, side).map_err(|p| format!("the prediction under the paint: {p}"))?;

@@ -251,7 +251,8 @@ impl Drop for Worker {
     }
 }
 
-struct ViewState {
+/// What turns a view's pixels into samples (geometry, mute flag, pixel colours), not the view.
+struct ViewSamples {
     gbuffer: Arc<GBuffer>,
     muted: bool,
     /// Painted pixels and their radiance, whether or not they give a sample.
@@ -259,7 +260,7 @@ struct ViewState {
 }
 
 struct WorkerState {
-    views: BTreeMap<ViewId, ViewState>,
+    views: BTreeMap<ViewId, ViewSamples>,
     sparse: SparseTable,
     solver: Option<Solver>,
     regularization: Regularization,
@@ -381,7 +382,7 @@ impl WorkerState {
         match command {
             Command::SetView { view, gbuffer } => {
                 self.sparse.remove_view(view, changes);
-                let state = self.views.entry(view).or_insert_with(|| ViewState {
+                let state = self.views.entry(view).or_insert_with(|| ViewSamples {
                     gbuffer: gbuffer.clone(),
                     muted: false,
                     painted: HashMap::new(),

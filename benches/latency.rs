@@ -6,7 +6,11 @@
 //!
 //! `cargo bench --bench latency` prints p50, p95 and max latency, frame times and the most
 //! commands ever waiting for the worker (the worker keeps up when that stays small), with the
-//! load average before and after (other work on the machine shows in the figures).
+//! load average before and after (other work on the machine shows in the figures), and the
+//! floors: the same harness rendering and reading back an egui window of the same size that
+//! holds one label, and one that a single opaque rectangle covers (what any window whose
+//! panels fill it costs at least: on a software rasteriser the cost is per covered pixel), so
+//! that what the app adds can be told from what the adapter charges for the window.
 //! `LATENCY_FRAMES` (240), `LATENCY_RESOLUTION` (512) and `LATENCY_WINDOW` (`1500x900`)
 //! change the run. Under `cargo test` (no `--bench` argument) it is a quick check that the
 //! loop works: 12 frames in a 1000 × 700 window on a 128² canvas with a tiny basis
@@ -140,6 +144,9 @@ fn main() {
         idle_ms.push(frame_start.elapsed().as_secs_f64() * 1e3);
     }
 
+    let floor_ms = bare_window_frames(window, frames / 4, false);
+    let covered_ms = bare_window_frames(window, frames / 4, true);
+
     let app = harness.state();
     let percentile = |v: &[f64], q: f64| {
         let mut s = v.to_vec();
@@ -166,10 +173,43 @@ fn main() {
         percentile(&idle_ms, 0.95)
     );
     println!(
+        "frame time of an egui window of the same size with one label: p50 {:.1} ms, p95 {:.1} ms; covered by one opaque rectangle: p50 {:.1} ms, p95 {:.1} ms",
+        percentile(&floor_ms, 0.5),
+        percentile(&floor_ms, 0.95),
+        percentile(&covered_ms, 0.5),
+        percentile(&covered_ms, 0.95)
+    );
+    println!(
         "samples {}, observed bins {}, last worker batch {:.2} ms",
         app.document().snapshot().stats.samples,
         app.document().snapshot().stats.observed_bins,
         app.document().snapshot().stats.update_ms
     );
     println!("load average before {load_before}, after {}", load());
+}
+
+/// Frame times of a window of `size` holding one label (`covered`: and one opaque rectangle
+/// over all of it), rendered and read back every step by the same harness and adapter as the
+/// app: the floors under every figure above.
+fn bare_window_frames(size: Vec2, frames: usize, covered: bool) -> Vec<f64> {
+    let mut harness = Harness::builder()
+        .with_size(size)
+        .wgpu()
+        .with_render_every_step(true)
+        .build_ui(move |ui| {
+            if covered {
+                ui.painter()
+                    .rect_filled(ui.max_rect(), 0.0, egui::Color32::from_gray(27));
+            }
+            ui.label("floor");
+        });
+    harness.run_steps(3);
+    (0..frames.max(1))
+        .map(|i| {
+            let frame_start = Instant::now();
+            harness.event(Event::PointerMoved(Pos2::new(100.0 + i as f32, 100.0)));
+            harness.step();
+            frame_start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect()
 }

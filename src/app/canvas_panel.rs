@@ -93,17 +93,34 @@ fn region_image(pixels: &[[f32; 3]], width: usize, rect: PixelRect) -> ColorImag
     ColorImage::new([w, h], out)
 }
 
+/// The central panel's contents, and its fill: the panel's frame has none (see
+/// [`central_frame`]), so it is painted here around the canvas, which paints its own.
 pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
     // The panel as laid out, before any row of the brush bar can widen the Ui past it: the
     // canvas fits what is visible, not what the widest row asked for.
     let panel = ui.max_rect();
+    let whole_panel = panel + central_frame(ui.style()).inner_margin;
+    let fill_painter = ui.painter().clone();
+    let fill = fill_painter.add(egui::Shape::Noop);
     ui.set_clip_rect(panel.intersect(ui.clip_rect()));
     brush_bar(app, ui);
     ui.separator();
     let below_bar = Rect::from_min_max(egui::pos2(panel.min.x, ui.cursor().min.y), panel.max);
-    ui.scope_builder(egui::UiBuilder::new().max_rect(below_bar), |ui| {
-        canvas(app, ui);
-    });
+    let canvas_area = ui
+        .scope_builder(egui::UiBuilder::new().max_rect(below_bar), |ui| {
+            canvas(app, ui)
+        })
+        .inner
+        .unwrap_or(Rect::NOTHING);
+    fill_painter.set(
+        fill,
+        super::widgets::fill_around(whole_panel, canvas_area, ui.visuals().panel_fill),
+    );
+}
+
+/// The central panel's frame: the standard one without its fill, which [`show`] paints.
+pub(super) fn central_frame(style: &egui::Style) -> egui::Frame {
+    egui::Frame::central_panel(style).fill(Color32::TRANSPARENT)
 }
 
 const TOOLS: [(BrushKind, &str, &str); 9] = [
@@ -222,11 +239,10 @@ fn colour_picker(app: &mut BurnishApp, ui: &mut egui::Ui) {
     ));
 }
 
-fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
+/// Lays out and paints the canvas; returns the area it painted over entirely, if any.
+fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) -> Option<Rect> {
     app.canvas_view.follow(app.doc.canvas_revision());
-    let Some(doc) = app.doc.active_view() else {
-        return;
-    };
+    let doc = app.doc.active_view()?;
     let view_id = doc.id();
     let resolution = doc.canvas().resolution();
     let (panel, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
@@ -258,7 +274,17 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
 
     upload_texture(app, ui.ctx(), view_id);
     let painter = ui.painter_at(panel);
-    painter.rect_filled(panel, 0.0, ui.visuals().extreme_bg_color);
+    // The canvas texture is opaque: the background goes only where it does not reach.
+    let covered = if app.canvas_view.texture.is_some() {
+        rect
+    } else {
+        Rect::NOTHING
+    };
+    painter.add(super::widgets::fill_around(
+        panel,
+        covered,
+        ui.visuals().extreme_bg_color,
+    ));
     if let Some((_, texture)) = &app.canvas_view.texture {
         painter.image(
             texture.id(),
@@ -313,6 +339,7 @@ fn canvas(app: &mut BurnishApp, ui: &mut egui::Ui) {
         let radius = app.brush.size * 0.5 * zoom;
         painter.circle_stroke(pos, radius, (1.0, Color32::from_white_alpha(160)));
     }
+    Some(panel)
 }
 
 fn upload_texture(app: &mut BurnishApp, ctx: &egui::Context, view_id: u32) {

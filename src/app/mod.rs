@@ -412,10 +412,13 @@ impl eframe::App for BurnishApp {
             .default_size(260.0)
             .show(ui, |ui| side_panel::show(self, ui));
         egui::Panel::right("preview")
+            .frame(preview_panel::panel_frame(ui.style()))
             .resizable(true)
             .default_size(ui.available_width() * 0.4)
             .show(ui, |ui| preview_panel::show(self, ui));
-        egui::CentralPanel::default().show(ui, |ui| canvas_panel::show(self, ui));
+        egui::CentralPanel::default()
+            .frame(canvas_panel::central_frame(ui.style()))
+            .show(ui, |ui| canvas_panel::show(self, ui));
         self.take_document_events();
         menus::dialogs(self, ui.ctx());
         // The frame's strokes and actions are in: write them (or schedule the write) now.

@@ -1,6 +1,6 @@
 //! Small custom widgets.
 
-use egui::{Color32, Pos2, Sense, Stroke, Vec2};
+use egui::{Color32, Pos2, Rect, Sense, Stroke, Vec2};
 
 /// A draggable dial for a light direction: the centre is straight up (elevation 90°), the
 /// rim the horizon; the angle around is the azimuth (0 toward the default camera, which is
@@ -54,4 +54,33 @@ pub fn light_dial(ui: &mut egui::Ui, elevation_deg: &mut f64, azimuth_deg: &mut 
         "Drag to move the light: centre = overhead, rim = horizon, bottom = toward the camera",
     );
     changed
+}
+
+/// `outer` filled with `colour` except for `hole`, where something opaque is drawn on top: as
+/// at most four unfeathered rectangles. On a software rasteriser every pixel a shape covers
+/// costs the same whether or not a later image hides it, and a panel's fill under the canvas
+/// or the preview was a third of the window's frame on lavapipe.
+pub fn fill_around(outer: Rect, hole: Rect, colour: Color32) -> egui::Shape {
+    let mut mesh = egui::Mesh::default();
+    let hole = hole.intersect(outer);
+    if !hole.is_positive() {
+        mesh.add_colored_rect(outer, colour);
+        return egui::Shape::mesh(mesh);
+    }
+    let strips = [
+        Rect::from_min_max(outer.min, Pos2::new(outer.max.x, hole.min.y)),
+        Rect::from_min_max(Pos2::new(outer.min.x, hole.max.y), outer.max),
+        Rect::from_min_max(
+            Pos2::new(outer.min.x, hole.min.y),
+            Pos2::new(hole.min.x, hole.max.y),
+        ),
+        Rect::from_min_max(
+            Pos2::new(hole.max.x, hole.min.y),
+            Pos2::new(outer.max.x, hole.max.y),
+        ),
+    ];
+    for strip in strips.into_iter().filter(|r| r.is_positive()) {
+        mesh.add_colored_rect(strip, colour);
+    }
+    egui::Shape::mesh(mesh)
 }

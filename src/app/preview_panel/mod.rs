@@ -259,7 +259,12 @@ impl BurnishApp {
     }
 }
 
+/// The preview panel's contents, and its fill: the panel's frame has none (see
+/// [`panel_frame`]), so it is painted here around the preview, which is opaque.
 pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
+    let whole_panel = ui.max_rect() + panel_frame(ui.style()).inner_margin;
+    let fill_painter = ui.painter().clone();
+    let fill = fill_painter.add(egui::Shape::Noop);
     ui.horizontal(|ui| {
         ui.selectable_value(&mut app.preview_tab, PreviewTab::Object, "Object");
         ui.selectable_value(&mut app.preview_tab, PreviewTab::Lobe, "Lobe");
@@ -268,11 +273,31 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
         reference_controls(app, ui);
     });
     ui.separator();
-    match app.preview_tab {
+    let preview = match app.preview_tab {
         PreviewTab::Object => object_tab(app, ui),
-        PreviewTab::Lobe => lobe_tab(app, ui),
-        PreviewTab::Table => table_tab(app, ui),
-    }
+        PreviewTab::Lobe => {
+            lobe_tab(app, ui);
+            None
+        }
+        PreviewTab::Table => {
+            table_tab(app, ui);
+            None
+        }
+    };
+    fill_painter.set(
+        fill,
+        super::widgets::fill_around(
+            whole_panel,
+            preview.unwrap_or(egui::Rect::NOTHING),
+            ui.visuals().panel_fill,
+        ),
+    );
+}
+
+/// The preview panel's frame: the standard side panel's without its fill, which [`show`]
+/// paints.
+pub(super) fn panel_frame(style: &egui::Style) -> egui::Frame {
+    egui::Frame::side_top_panel(style).fill(egui::Color32::TRANSPARENT)
 }
 
 fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {

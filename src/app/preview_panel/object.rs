@@ -180,7 +180,9 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
     }
 }
 
-pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
+/// The Object tab; returns the area it painted over with something opaque (the single
+/// preview, or its placeholder), if any.
+pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) -> Option<egui::Rect> {
     object_controls(app, ui);
     let compared = app
         .compared_material()
@@ -254,7 +256,7 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
             egui::FontId::proportional(14.0),
             ui.visuals().error_fg_color,
         );
-        return;
+        return Some(rect);
     }
     if app.preview.mode == PreviewMode::Table && app.preview_state.reference.is_none() {
         app.preview.mode = PreviewMode::Reconstruction;
@@ -325,6 +327,8 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) {
         }
     }
     app.record_drawn(snapshot.version, snapshot.oldest_input);
+    // With a comparison the panes leave gaps between them; the panel fills behind them all.
+    compare_layout.is_none().then_some(rect)
 }
 
 fn wrap_degrees(deg: f64) -> f64 {

@@ -567,10 +567,9 @@ fn build(
                 residual[r] = ((stats.m2[pair] - explained) / n as f64).max(0.0);
             }
         });
-    let weighted_residual: f64 = residual
-        .iter()
-        .enumerate()
-        .map(|(p, r)| crate::table::pair_multiplicity(PairIndex::from_index(p)) * r)
+    let weighted_residual: f64 = PairIndex::all()
+        .zip(&residual)
+        .map(|(p, r)| crate::table::pair_multiplicity(p) * r)
         .sum();
     let residual_variance =
         (weighted_residual / crate::table::ENTRIES as f64).max(MIN_RESIDUAL_VARIANCE);

@@ -97,11 +97,11 @@ fn importance(posterior: &Posterior, reconstruction: &Reconstruction) -> Mat<f64
             for &pair in chunk {
                 let (lo, hi) = pair_directions(pair);
                 let cc = cos_theta_centre(lo) * cos_theta_centre(hi);
-                let c = crate::basis::cos_weight(pair.index());
+                let c = crate::basis::cos_weight(pair);
                 let rho = reconstruction.eval_pair(pair);
                 let luminance = 0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2];
                 let slope = (luminance as f64 * c + crate::basis::MAP_EPSILON) / c * cc;
-                let psi = posterior.design_row(pair, basis.row(pair.index()));
+                let psi = posterior.design_row(pair, basis.row(pair));
                 let nonzero: Vec<usize> = (0..d).filter(|&i| psi[i] != 0.0).collect();
                 let weight = slope * slope * crate::table::pair_multiplicity(pair);
                 for &i in &nonzero {
@@ -161,7 +161,7 @@ pub fn rank_views(
             for &pair in &pairs {
                 let rho = reconstruction.eval_pair(pair).map(f64::from);
                 let w = solver.prospective_weight(pair, rho) / alpha;
-                let psi = posterior.design_row(pair, basis.row(pair.index()));
+                let psi = posterior.design_row(pair, basis.row(pair));
                 let nonzero: Vec<usize> = (0..d).filter(|&i| psi[i] != 0.0).collect();
                 for &i in &nonzero {
                     for &j in &nonzero {

@@ -21,7 +21,7 @@ fn components_are_orthonormal_over_the_full_table_and_sorted() {
     let mut gram = vec![0f64; k * k];
     for p in PairIndex::all() {
         let w = pair_multiplicity(p);
-        let row = basis.row(p.index());
+        let row = basis.row(p);
         for i in 0..k {
             for j in 0..k {
                 gram[i * k + j] += w * row[i] as f64 * row[j] as f64;

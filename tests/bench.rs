@@ -16,7 +16,7 @@ use burnish::materials::tabulate;
 use burnish::metrics::table_errors;
 use burnish::scene::{GBuffer, Object, render_brdf, render_table, samples_from_image};
 use burnish::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
-use burnish::table::{PAIRS, PairIndex, SymTable, pair_multiplicity};
+use burnish::table::{PairIndex, SymTable, pair_multiplicity};
 use common::small_basis;
 
 /// The sparse table of `views` views of the default sphere at `resolution`, painted with
@@ -88,12 +88,12 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
 /// Σ_p w_p (u_pᵀx − y_p)² over the whole table: the oracle's own criterion.
 fn mapped_residual(basis: &burnish::basis::Basis, truth: &SymTable, x: &[[f64; 3]]) -> f64 {
     let mut sum = 0.0;
-    for pair in 0..PAIRS {
+    for (pair, value) in PairIndex::all().zip(truth.pairs()) {
         let row = basis.row(pair);
         for c in 0..3 {
             let fit: f64 = row.iter().zip(x).map(|(&u, xk)| u as f64 * xk[c]).sum();
-            let y = basis.centred_observation(pair, truth.pairs()[pair][c] as f64);
-            sum += pair_multiplicity(PairIndex::from_index(pair)) * (fit - y).powi(2);
+            let y = basis.centred_observation(pair, value[c] as f64);
+            sum += pair_multiplicity(pair) * (fit - y).powi(2);
         }
     }
     sum

@@ -567,10 +567,9 @@ fn build(
                 residual[r] = ((stats.m2[pair] - explained) / n as f64).max(0.0);
             }
         });
-    let weighted_residual: f64 = residual
-        .iter()
-        .enumerate()
-        .map(|(p, r)| crate::table::pair_multiplicity(PairIndex::from_index(p)) * r)
+    let weighted_residual: f64 = PairIndex::all()
+        .zip(&residual)
+        .map(|(p, r)| crate::table::pair_multiplicity(p) * r)
         .sum();
     let residual_variance =
         (weighted_residual / crate::table::ENTRIES as f64).max(MIN_RESIDUAL_VARIANCE);
@@ -603,7 +602,7 @@ mod tests {
         let streamed = build(&source, &spec, &|_| {}, false);
         let kept = build(&source, &spec, &|_| {}, true);
         assert_eq!(streamed.variances(), kept.variances());
-        for pair in [0, 1234, PAIRS / 2, PAIRS - 1] {
+        for pair in [0, 1234, PAIRS / 2, PAIRS - 1].map(PairIndex::from_index) {
             assert_eq!(streamed.row(pair), kept.row(pair), "pair {pair}");
         }
         assert_eq!(streamed.residuals(), kept.residuals());

@@ -33,10 +33,10 @@ pub fn cos_weight_polar(t_l: usize, t_v: usize) -> f64 {
     (cos[t_l] * cos[t_v]).clamp(MAP_COS_FLOOR, 1.0)
 }
 
-/// c for the pair index `pair`.
+/// c for the pair `pair`.
 #[inline]
-pub fn cos_weight(pair: usize) -> f64 {
-    let (lo, hi) = pair_directions(PairIndex::from_index(pair));
+pub fn cos_weight(pair: PairIndex) -> f64 {
+    let (lo, hi) = pair_directions(pair);
     cos_weight_polar(lo as usize / PHI_BINS, hi as usize / PHI_BINS)
 }
 
@@ -203,27 +203,27 @@ impl Basis {
         &self.data()[ROWS..]
     }
 
-    /// The K component values of pair `p`.
+    /// The K component values of pair `pair`.
     #[inline]
-    pub fn row(&self, pair: usize) -> &[f32] {
-        let k = self.components;
-        &self.rows()[pair * k..(pair + 1) * k]
+    pub fn row(&self, pair: PairIndex) -> &[f32] {
+        let (k, p) = (self.components, pair.index());
+        &self.rows()[p * k..(p + 1) * k]
     }
 
-    /// Maps a BRDF value of pair `p` into the mean-centred domain the components span,
+    /// Maps a BRDF value of pair `pair` into the mean-centred domain the components span,
     /// clamped to the database's range (plus a margin) so that wild paint stays bounded.
     #[inline]
-    pub fn centred_observation(&self, pair: usize, rho: f64) -> f64 {
+    pub fn centred_observation(&self, pair: PairIndex, rho: f64) -> f64 {
         let data = self.data();
-        let m = map_value(rho, cos_weight(pair), data[REFERENCE + pair] as f64);
+        let m = map_value(rho, cos_weight(pair), data[REFERENCE + pair.index()] as f64);
         let (lo, hi) = self.mapped_range(pair);
-        m.clamp(lo, hi) - data[MEAN + pair] as f64
+        m.clamp(lo, hi) - data[MEAN + pair.index()] as f64
     }
 
-    /// The mapped range a reconstruction of pair `p` may take.
+    /// The mapped range a reconstruction of pair `pair` may take.
     #[inline]
-    pub fn mapped_range(&self, pair: usize) -> (f64, f64) {
-        let data = self.data();
+    pub fn mapped_range(&self, pair: PairIndex) -> (f64, f64) {
+        let (data, pair) = (self.data(), pair.index());
         (
             (data[LOWER + pair] - RANGE_MARGIN) as f64,
             (data[UPPER + pair] + RANGE_MARGIN) as f64,
@@ -254,8 +254,9 @@ mod tests {
 
     #[test]
     fn cos_weight_is_clamped() {
-        assert!((cos_weight(0) - theta_centre(0).cos().powi(2)).abs() < 1e-12);
-        let last = crate::table::PAIRS - 1;
+        let first = PairIndex::from_index(0);
+        assert!((cos_weight(first) - theta_centre(0).cos().powi(2)).abs() < 1e-12);
+        let last = PairIndex::from_index(crate::table::PAIRS - 1);
         assert_eq!(cos_weight(last), MAP_COS_FLOOR);
     }
 }

@@ -160,7 +160,7 @@ pub fn fit_lambert_ggx(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> 
         .iter()
         .map(|&(pair, rho)| {
             let (lo, hi) = pair_directions(pair);
-            let c = cos_weight(pair.index());
+            let c = cos_weight(pair);
             Observation {
                 l: bin_centre(lo),
                 v: bin_centre(hi),

@@ -30,8 +30,8 @@ impl OracleProjector {
             .map(|b| {
                 let mut g = vec![0f64; k * k];
                 let mut row = vec![0f64; k];
-                for pair in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
-                    let w = pair_multiplicity(PairIndex::from_index(pair));
+                for pair in (b * BLOCK..((b + 1) * BLOCK).min(PAIRS)).map(PairIndex::from_index) {
+                    let w = pair_multiplicity(pair);
                     for (r, &u) in row.iter_mut().zip(basis.row(pair)) {
                         *r = u as f64;
                     }
@@ -74,9 +74,10 @@ impl OracleProjector {
             .into_par_iter()
             .map(|b| {
                 let mut rhs = vec![[0f64; 3]; k];
-                for pair in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
-                    let w = pair_multiplicity(PairIndex::from_index(pair));
-                    let y = values[pair].map(|v| w * basis.centred_observation(pair, v as f64));
+                for index in b * BLOCK..((b + 1) * BLOCK).min(PAIRS) {
+                    let pair = PairIndex::from_index(index);
+                    let w = pair_multiplicity(pair);
+                    let y = values[index].map(|v| w * basis.centred_observation(pair, v as f64));
                     for (r, &u) in rhs.iter_mut().zip(basis.row(pair)) {
                         for c in 0..3 {
                             r[c] += u as f64 * y[c];

@@ -150,6 +150,10 @@ struct Evaluator<'a> {
 
 impl Evaluator<'_> {
     /// ρ of pair `pair` whose directions lie in polar bins `t_l` and `t_v`.
+    ///
+    /// The pair is a raw storage position, not a [`PairIndex`]: [`Reconstruction::materialize`]
+    /// walks every position in order, and a checked [`PairIndex`] per entry would add a bounds
+    /// assertion to its innermost loop for nothing.
     #[inline]
     fn eval(&self, pair: usize, t_l: usize, t_v: usize) -> Rgb {
         let k = self.k;

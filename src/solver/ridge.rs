@@ -238,7 +238,7 @@ impl Solver {
     }
 
     fn centred(&self, pair: PairIndex, rho: [f64; 3]) -> [f64; 3] {
-        rho.map(|v| self.basis.centred_observation(pair.index(), v))
+        rho.map(|v| self.basis.centred_observation(pair, v))
     }
 
     /// Multiplicity × the rounded brightness weight of a bin of brightness `brightness`.
@@ -304,12 +304,7 @@ impl Solver {
                     obs.bounds = bounds;
                     self.observed.insert(pair, obs);
                 } else {
-                    let row: Box<[f64]> = self
-                        .basis
-                        .row(pair.index())
-                        .iter()
-                        .map(|&u| u as f64)
-                        .collect();
+                    let row: Box<[f64]> = self.basis.row(pair).iter().map(|&u| u as f64).collect();
                     let obs = Observed {
                         row,
                         band: self.model.band_weights(pair),
@@ -360,7 +355,7 @@ impl Solver {
         if bounds.iter().all(|&b| b != Bound::AtMost) {
             return (rho, bounds);
         }
-        let c = crate::basis::cos_weight(pair.index());
+        let c = crate::basis::cos_weight(pair);
         let (mut rho, mut bounds) = (rho, bounds);
         for ch in 0..3 {
             // The mapped length of [0, b]; the map's reference cancels out.
@@ -939,7 +934,7 @@ impl Posterior {
             .with_min_len(4096)
             .map(|index| {
                 let pair = PairIndex::from_index(index);
-                let u = basis.row(index);
+                let u = basis.row(pair);
                 let w = self.model.band_weights(pair);
                 let (a, f) = (w.lower as usize, w.frac as f64);
                 let mut var = (1.0 - f) * (1.0 - f) * quadratic(&diagonal[a], u);
@@ -948,7 +943,7 @@ impl Posterior {
                         + f * f * quadratic(&diagonal[a + 1], u);
                 }
                 let sd = (var.max(0.0) + residuals[index] as f64).sqrt();
-                let c = crate::basis::cos_weight(index);
+                let c = crate::basis::cos_weight(pair);
                 reconstruction.eval_pair(pair).map(|rho| {
                     let slope = (rho as f64 * c + crate::basis::MAP_EPSILON) / c;
                     let v = (slope * sd) as f32;

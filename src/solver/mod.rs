@@ -3,6 +3,7 @@
 
 pub mod bands;
 mod condition;
+pub mod posterior;
 pub mod prior;
 pub mod reconstruction;
 pub mod ridge;

@@ -54,6 +54,7 @@
 
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
+pub use super::posterior::Posterior;
 use super::prior::EVIDENCE_BAND_CORRELATIONS;
 pub use super::prior::{Censoring, DEFAULT_ALPHA, PriorModel, Regularization};
 use super::sparse::{BinChange, Bound, Bounds, EXACT};
@@ -786,75 +787,6 @@ impl Solver {
     }
 }
 
-/// The posterior of the coefficients after a solve.
-#[derive(Clone, Debug)]
-pub struct Posterior {
-    model: PriorModel,
-    components: usize,
-    alpha: f64,
-    /// (N + αP₀)/α: the posterior precision.
-    precision: Mat<f64>,
-    covariance: Mat<f64>,
-}
-
-impl Posterior {
-    /// The α the posterior was computed with.
-    pub fn alpha(&self) -> f64 {
-        self.alpha
-    }
-
-    /// The posterior precision of the coefficients (D × D).
-    pub fn precision(&self) -> &Mat<f64> {
-        &self.precision
-    }
-
-    /// The posterior covariance of the coefficients (D × D).
-    pub fn covariance(&self) -> &Mat<f64> {
-        &self.covariance
-    }
-
-    /// ψ_p: where pair `pair`'s basis row `row` enters the coefficients (D entries).
-    pub fn design_row(&self, pair: PairIndex, row: &[f32]) -> Vec<f64> {
-        let k = self.components;
-        let mut psi = vec![0.0; self.model.rows(k)];
-        for (j, phi) in self.model.band_weights(pair).pairs() {
-            if phi != 0.0 {
-                for i in 0..k {
-                    psi[j * k + i] = phi * row[i] as f64;
-                }
-            }
-        }
-        psi
-    }
-
-    /// Variance of the mapped value of pair `pair` given the painted bins (the coefficients'
-    /// share; the basis's residual there adds to it).
-    pub fn mapped_variance(&self, pair: PairIndex, row: &[f32]) -> f64 {
-        let k = self.components;
-        let blocks = self.model.band_weights(pair).pairs();
-        let mut sum = 0.0;
-        for &(ja, pa) in &blocks {
-            if pa == 0.0 {
-                continue;
-            }
-            for &(jb, pb) in &blocks {
-                if pb == 0.0 {
-                    continue;
-                }
-                for i in 0..k {
-                    let ui = pa * row[i] as f64;
-                    let mut s = 0.0;
-                    for l in 0..k {
-                        s += self.covariance[(ja * k + i, jb * k + l)] * row[l] as f64;
-                    }
-                    sum += ui * pb * s;
-                }
-            }
-        }
-        sum.max(0.0)
-    }
-}
-
 /// Adds (`sign` = 1) or removes (−1) one observation's terms w·ψψᵀ, w·ψy and w·y².
 fn accumulate(
     normal: &mut [f64],
@@ -896,63 +828,6 @@ fn accumulate(
         yty[c] += w * obs.y[c] * obs.y[c];
     }
     *weight_sum += w;
-}
-
-impl Posterior {
-    /// Per-pair standard deviation of ρ given the painted bins: the coefficients' posterior
-    /// variance at the pair plus what the basis cannot follow there (its residual over the
-    /// database), carried from the mapped domain to ρ through the map's slope
-    /// (ρc + ε)/c at the reconstruction's value. Where the table is guessed rather than
-    /// painted this is large; on painted bins it is small.
-    pub fn table_std_dev(&self, reconstruction: &super::Reconstruction) -> crate::table::SymTable {
-        use rayon::prelude::*;
-        let basis = reconstruction.basis();
-        let k = self.components;
-        // The covariance's K × K blocks between neighbouring sets, as f64 rows.
-        let block = |a: usize, b: usize| -> Vec<f64> {
-            (0..k * k)
-                .map(|i| self.covariance[(a * k + i / k, b * k + i % k)])
-                .collect()
-        };
-        let sets = self.model.bands;
-        let diagonal: Vec<Vec<f64>> = (0..sets).map(|a| block(a, a)).collect();
-        let next: Vec<Vec<f64>> = (0..sets.saturating_sub(1))
-            .map(|a| block(a, a + 1))
-            .collect();
-        let quadratic = |m: &[f64], u: &[f32]| -> f64 {
-            let mut sum = 0.0;
-            for i in 0..k {
-                let row = &m[i * k..(i + 1) * k];
-                let t: f64 = row.iter().zip(u).map(|(c, &x)| c * x as f64).sum();
-                sum += u[i] as f64 * t;
-            }
-            sum
-        };
-        let residuals = basis.residuals();
-        let values: Vec<crate::table::Rgb> = (0..crate::table::PAIRS)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|index| {
-                let pair = PairIndex::from_index(index);
-                let u = basis.row(pair);
-                let w = self.model.band_weights(pair);
-                let (a, f) = (w.lower as usize, w.frac as f64);
-                let mut var = (1.0 - f) * (1.0 - f) * quadratic(&diagonal[a], u);
-                if f != 0.0 {
-                    var += 2.0 * f * (1.0 - f) * quadratic(&next[a], u)
-                        + f * f * quadratic(&diagonal[a + 1], u);
-                }
-                let sd = (var.max(0.0) + residuals[index] as f64).sqrt();
-                let c = crate::basis::cos_weight(pair);
-                reconstruction.eval_pair(pair).map(|rho| {
-                    let slope = (rho as f64 * c + crate::basis::MAP_EPSILON) / c;
-                    let v = (slope * sd) as f32;
-                    if v.is_finite() { v } else { f32::MAX }
-                })
-            })
-            .collect();
-        crate::table::SymTable::from_pairs(values).expect("PAIRS values")
-    }
 }
 
 /// Prior standard deviation per component, floored so that a degenerate component

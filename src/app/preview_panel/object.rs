@@ -181,7 +181,7 @@ fn object_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
 }
 
 /// The Object tab; returns the area it painted over with something opaque (the single
-/// preview, or its placeholder), if any.
+/// preview, or the notice drawn where no GPU preview could start), if any.
 pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) -> Option<egui::Rect> {
     object_controls(app, ui);
     let compared = app

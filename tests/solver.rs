@@ -300,14 +300,7 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
     use burnish::scene::LDR_BLACK_BOUND;
     use burnish::solver::Bound;
     let basis = small_basis(8);
-    let brdf = burnish::materials::models::Lambert {
-        albedo: [0.5, 0.4, 0.3],
-    };
-    let mut table = SparseTable::new(Policy::Mean);
-    let mut lit = Vec::new();
-    for (key, d_l, d_v, rho) in sphere_view_samples(&brdf, 0, 45.0, 30.0, 48) {
-        table.set_sample(key, d_l, d_v, rho, &mut lit).unwrap();
-    }
+    let lit = lit_lambert_sphere();
     // Black pixels in bins the view did not reach (a grazing light's dark side).
     let dark: Vec<PairIndex> = (0..40)
         .map(|t| burnish::table::pair_index(t * 36, 700))
@@ -348,14 +341,7 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
 fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
     use burnish::solver::{Bound, Censoring, PriorModel};
     let basis = small_basis(8);
-    let brdf = burnish::materials::models::Lambert {
-        albedo: [0.5, 0.4, 0.3],
-    };
-    let mut table = SparseTable::new(Policy::Mean);
-    let mut lit = Vec::new();
-    for (key, d_l, d_v, rho) in sphere_view_samples(&brdf, 0, 45.0, 30.0, 48) {
-        table.set_sample(key, d_l, d_v, rho, &mut lit).unwrap();
-    }
+    let lit = lit_lambert_sphere();
     // A highlight the paint clipped: far brighter than the Lambertian rest, so only a bound.
     let clipped: Vec<PairIndex> = (0..30)
         .map(|t| burnish::table::pair_index(t * 36 + 3, t * 36 + 21))
@@ -408,6 +394,20 @@ fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
             .any(|&p| (bounded.eval_pair(p)[1] - at_clip.eval_pair(p)[1]).abs() > 1e-6),
         "200 steps changed nothing"
     );
+}
+
+/// The bin changes of one view of a Lambertian sphere lit at (45°, 30°): the exact bins the
+/// bound tests add their bounded ones to.
+fn lit_lambert_sphere() -> Vec<BinChange> {
+    let brdf = burnish::materials::models::Lambert {
+        albedo: [0.5, 0.4, 0.3],
+    };
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut lit = Vec::new();
+    for (key, d_l, d_v, rho) in sphere_view_samples(&brdf, 0, 45.0, 30.0, 48) {
+        table.set_sample(key, d_l, d_v, rho, &mut lit).unwrap();
+    }
+    lit
 }
 
 /// The band correlation is chosen by the painted bins' evidence only where they can tell:

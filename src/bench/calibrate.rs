@@ -346,10 +346,9 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
         .iter()
         .flat_map(|&paint| gbuffers.iter().map(move |set| (paint, set.as_slice())))
         .collect();
-    let arranged_sets: Vec<(PaintRange, usize)> = options
-        .paints
+    let arranged_sets: Vec<(PaintRange, usize)> = arrangements
         .iter()
-        .flat_map(|&paint| sets.iter().map(move |set| (paint, set.len())))
+        .map(|&(paint, set)| (paint, set.len()))
         .collect();
     // errors[candidate][case][arrangement] = (relative RMSE, log RMSE)
     let mut errors: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::new(); options.candidates.len()];

@@ -1,7 +1,7 @@
 //! Session files, autosave and recovery, on real files in temporary folders.
 
 use burnish::paint::{BrushKind, BrushSettings};
-use burnish::scene::{Object, Projection, Scene};
+use burnish::scene::{Object, PaintRange, Projection, Scene};
 use burnish::session::{
     AUTOSAVE_DELAY, AUTOSAVE_MIN_GAP, AUTOSAVE_RETRY, Autosaver, BasisSettings, FORMAT_VERSION,
     Session, SessionView, pending_recovery, pending_recovery_at, recovery_path,
@@ -64,6 +64,8 @@ fn two_view_session(mesh_dir: &Path) -> Session {
     scene.camera.pitch_deg = -10.0;
     let mut mesh = SessionView::new("Tetra · side", scene).unwrap();
     mesh.settings.muted = true;
+    // Imported from an 8-bit file: its clipped channels stay bounds after a reopen.
+    mesh.settings.paint_range = PaintRange::Ldr;
     paint(&mut mesh, 2);
     Session {
         views: vec![sphere, mesh],
@@ -401,6 +403,15 @@ fn bad_files_are_refused_naming_the_file_and_the_problem() {
         edit_manifest("opacity = 0.7", "opacity = 7.0"),
     );
     assert_refused(&bad("brush.burnish"), &["session.toml", "opacity"]);
+    rewrite_zip(
+        &good,
+        &bad("range.burnish"),
+        edit_manifest("paint_range = \"ldr\"", "paint_range = \"12-bit\""),
+    );
+    assert_refused(
+        &bad("range.burnish"),
+        &["session.toml", "views[1].paint_range", "12-bit"],
+    );
 
     // The good file still opens: the rewriting itself is sound.
     assert_eq!(

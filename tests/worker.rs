@@ -4,7 +4,7 @@
 mod common;
 
 use burnish::paint::PixelChange;
-use burnish::scene::{GBuffer, Object, Scene, render_brdf, samples_from_image};
+use burnish::scene::{GBuffer, Object, PaintRange, Scene, render_brdf, samples_from_image};
 use burnish::solver::{Policy, Regularization, SampleKey, Solver, SparseTable};
 use burnish::worker::{Command, Worker};
 use std::sync::Arc;
@@ -152,6 +152,7 @@ fn erasing_every_pixel_returns_to_the_mean_material() {
     worker.send(Command::ReplacePaint {
         view: 0,
         painted: paint.clone(),
+        range: PaintRange::Hdr,
     });
     assert!(sync(&worker).stats.samples > 0);
     worker.send(Command::Pixels {
@@ -191,6 +192,7 @@ fn paint_before_the_basis_is_solved_when_it_arrives() {
     worker.send(Command::ReplacePaint {
         view: 0,
         painted: paint.clone(),
+        range: PaintRange::Hdr,
     });
     let waiting = sync(&worker);
     assert!(waiting.basis.is_none());
@@ -219,6 +221,7 @@ fn views_mute_move_and_close() {
         worker.send(Command::ReplacePaint {
             view: id,
             painted: p.clone(),
+            range: PaintRange::Hdr,
         });
     }
     let both = sync(&worker);
@@ -303,6 +306,7 @@ fn analyses_answer_from_the_state_when_asked() {
     worker.send(Command::ReplacePaint {
         view: 0,
         painted: paint.clone(),
+        range: PaintRange::Hdr,
     });
     worker.send(Command::Predict {
         view: 0,

@@ -53,16 +53,8 @@ pub struct CalibrateArgs {
     #[arg(long, value_delimiter = ',')]
     pub censoring: Option<Vec<crate::solver::Censoring>>,
     /// Paint to score the candidates on: hdr, ldr or hdr,ldr (default: both).
-    #[arg(long, value_delimiter = ',', value_parser = parse_paint)]
+    #[arg(long, value_delimiter = ',', value_parser = <PaintRange as std::str::FromStr>::from_str)]
     pub paint: Option<Vec<PaintRange>>,
-}
-
-fn parse_paint(s: &str) -> Result<PaintRange, String> {
-    match s {
-        "hdr" => Ok(PaintRange::Hdr),
-        "ldr" => Ok(PaintRange::Ldr),
-        _ => Err(format!("'{s}' is neither hdr nor ldr")),
-    }
 }
 
 fn parse_switch(s: &str) -> Result<bool, String> {

@@ -7,7 +7,7 @@ use super::{Document, Event, ViewDoc};
 use crate::export::{ExportOptions, Format, export, load_table};
 use crate::image_io::RgbImage;
 use crate::paint::BrushSettings;
-use crate::scene::{GBuffer, Scene, render_table, write_png};
+use crate::scene::{GBuffer, PaintRange, Scene, paint_range_of, render_table, write_png};
 use crate::session::{BasisSettings, Session, StartMaterial, ViewSettings};
 use crate::solver::Reconstruction;
 use crate::table::merl::MerlBrdf;
@@ -63,10 +63,7 @@ impl Document {
                 view: doc.id,
                 muted: doc.settings.muted,
             });
-            self.worker.send(Command::ReplacePaint {
-                view: doc.id,
-                painted: doc.counted_pixels(),
-            });
+            self.worker.send(doc.paint_command());
         }
         self.views = docs;
         // The session's own starting material, or none: its canvases already hold the
@@ -170,13 +167,20 @@ impl Document {
             ));
         }
         doc.import_painting(&image)?;
-        self.worker.send(Command::ReplacePaint {
-            view: doc.id,
-            painted: doc.counted_pixels(),
-        });
+        // An 8-bit file's clipped channels say "at least this bright", as `burnish
+        // reconstruct` reads the same file.
+        doc.settings.paint_range = paint_range_of(path);
+        let range = doc.settings.paint_range;
+        self.worker.send(doc.paint_command());
         self.canvas_revision += 1;
         self.touch();
-        self.notify(format!("imported {}", path.display()));
+        self.notify(match range {
+            PaintRange::Ldr => format!(
+                "imported {} (8 bits: a clipped channel says \"at least this bright\")",
+                path.display()
+            ),
+            PaintRange::Hdr => format!("imported {}", path.display()),
+        });
         Ok(())
     }
 
@@ -363,10 +367,7 @@ impl Document {
                 result = Err(e);
             }
             self.awaiting_prediction.remove(&doc.id);
-            self.worker.send(Command::ReplacePaint {
-                view: doc.id,
-                painted: doc.counted_pixels(),
-            });
+            self.worker.send(doc.paint_command());
         }
         self.canvas_revision += 1;
         self.touch();

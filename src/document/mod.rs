@@ -18,7 +18,7 @@ pub use view::{Base, ViewDoc, object_mask, propose_view};
 
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::paint::{BrushKind, BrushSettings, Canvas, CanvasChanges, PixelRect, UnpaintedPixels};
-use crate::scene::Scene;
+use crate::scene::{PaintRange, Scene};
 use crate::session::{Autosaver, BasisSettings, RecoveryInfo, StartMaterial, ViewSettings};
 use crate::solver::BinChange;
 use crate::table::{PairIndex, SymTable};
@@ -370,10 +370,7 @@ impl Document {
             self.awaiting_prediction.insert(id);
         } else {
             // Under "count as shown" an unpainted canvas already says what its base shows.
-            self.worker.send(Command::ReplacePaint {
-                view: id,
-                painted: doc.counted_pixels(),
-            });
+            self.worker.send(doc.paint_command());
         }
         self.views.push(doc);
         self.active = self.views.len() - 1;
@@ -456,10 +453,7 @@ impl Document {
                     return;
                 }
                 let result = doc.set_prediction(image);
-                self.worker.send(Command::ReplacePaint {
-                    view,
-                    painted: doc.counted_pixels(),
-                });
+                self.worker.send(doc.paint_command());
                 if index == self.active {
                     self.canvas_revision += 1;
                 }
@@ -476,10 +470,7 @@ impl Document {
                 if self.awaiting_prediction.remove(&view)
                     && let Some(doc) = self.views.iter().find(|d| d.id == view)
                 {
-                    self.worker.send(Command::ReplacePaint {
-                        view,
-                        painted: doc.counted_pixels(),
-                    });
+                    self.worker.send(doc.paint_command());
                 }
                 self.notify("no BRDF to predict yet: the view shows the guide");
             }
@@ -586,10 +577,21 @@ impl Document {
             return;
         }
         doc.settings.unpainted = rule;
-        self.worker.send(Command::ReplacePaint {
-            view: doc.id,
-            painted: doc.counted_pixels(),
-        });
+        self.worker.send(doc.paint_command());
+        self.touch();
+    }
+
+    /// Sets what the paint of the view at `index` can express: `Hdr` reads a clipped 8-bit
+    /// import's channels as exact values again.
+    pub fn set_paint_range(&mut self, index: usize, range: PaintRange) {
+        let Some(doc) = self.views.get_mut(index) else {
+            return;
+        };
+        if doc.settings.paint_range == range {
+            return;
+        }
+        doc.settings.paint_range = range;
+        self.worker.send(doc.paint_command());
         self.touch();
     }
 
@@ -604,10 +606,7 @@ impl Document {
             view: doc.id,
             gbuffer: doc.gbuffer.clone(),
         });
-        self.worker.send(Command::ReplacePaint {
-            view: doc.id,
-            painted: doc.counted_pixels(),
-        });
+        self.worker.send(doc.paint_command());
         self.canvas_revision += 1;
         self.touch();
         Ok(())

@@ -2,9 +2,9 @@
 
 use crate::image_io::RgbImage;
 use crate::paint::{Canvas, PaintLayers, UnpaintedPixels};
-use crate::scene::{GBuffer, Object, Scene, guide_image};
+use crate::scene::{GBuffer, Object, PaintRange, Scene, guide_image};
 use crate::session::{SessionView, ViewSettings};
-use crate::worker::ViewId;
+use crate::worker::{Command, ViewId};
 use std::sync::Arc;
 
 /// What a view's canvas shows under the paint.
@@ -119,6 +119,11 @@ impl ViewDoc {
         self.settings.unpainted
     }
 
+    /// What the paint's values can express (`Ldr` after an 8-bit import).
+    pub fn paint_range(&self) -> PaintRange {
+        self.settings.paint_range
+    }
+
     /// What the canvas shows under the paint.
     pub fn base(&self) -> Base {
         self.base
@@ -209,6 +214,16 @@ impl ViewDoc {
         self.canvas
             .layers()
             .counted_pixels(self.settings.unpainted, self.canvas.object_mask())
+    }
+
+    /// The command that hands the worker everything this view states at once: its counted
+    /// pixels and the range their values are read in.
+    pub(super) fn paint_command(&self) -> Command {
+        Command::ReplacePaint {
+            view: self.id,
+            painted: self.counted_pixels(),
+            range: self.settings.paint_range,
+        }
     }
 
     /// What pixel `pixel` says after a change whose painted state is `painted` (`None`:

@@ -36,8 +36,30 @@ pub enum PaintRange {
     #[default]
     Hdr,
     /// [0, 1] after sRGB decoding (PNG): a channel at 1 was clipped and says only "at least
-    /// this bright"; one at 0 says "darker than the first step of the 8-bit scale".
+    /// this bright"; one at 0 says "darker than the first step of the 8-bit scale". A value
+    /// above 1 cannot come from such a file: it is HDR paint laid over it, and exact.
     Ldr,
+}
+
+impl PaintRange {
+    /// The name in session files: `hdr` or `ldr`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PaintRange::Hdr => "hdr",
+            PaintRange::Ldr => "ldr",
+        }
+    }
+}
+
+impl std::str::FromStr for PaintRange {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "hdr" => Ok(PaintRange::Hdr),
+            "ldr" => Ok(PaintRange::Ldr),
+            other => Err(format!("'{other}' is not a paint range (hdr or ldr)")),
+        }
+    }
 }
 
 /// The linear value of half an 8-bit step above black: what a pixel stored as 0 may hide.
@@ -48,7 +70,8 @@ impl PaintRange {
     fn read(self, c: f32) -> (f32, Bound) {
         match self {
             PaintRange::Hdr => (c, Bound::Exact),
-            PaintRange::Ldr if c >= 1.0 => (c, Bound::AtLeast),
+            PaintRange::Ldr if c == 1.0 => (c, Bound::AtLeast),
+            PaintRange::Ldr if c > 1.0 => (c, Bound::Exact),
             PaintRange::Ldr if c <= 0.0 => (LDR_BLACK_BOUND, Bound::AtMost),
             PaintRange::Ldr => (c, Bound::Exact),
         }
@@ -246,5 +269,38 @@ pub fn paint_range_of(path: &Path) -> PaintRange {
         PaintRange::Ldr
     } else {
         PaintRange::Hdr
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_8_bit_channel_at_its_top_or_bottom_is_a_bound_and_hdr_paint_over_it_is_exact() {
+        let ldr = PaintRange::Ldr;
+        assert_eq!(ldr.read(1.0), (1.0, Bound::AtLeast));
+        assert_eq!(ldr.read(0.0), (LDR_BLACK_BOUND, Bound::AtMost));
+        assert_eq!(ldr.read(0.5), (0.5, Bound::Exact));
+        // Above 1 no 8-bit file can go: paint laid over the import in the app.
+        assert_eq!(ldr.read(2.5), (2.5, Bound::Exact));
+        for c in [0.0, 0.5, 1.0, 2.5] {
+            assert_eq!(PaintRange::Hdr.read(c), (c, Bound::Exact));
+        }
+        // A white 8-bit pixel decodes to exactly 1, so it is the bound, not a value.
+        assert_eq!(crate::scene::srgb_decode(1.0), 1.0);
+    }
+
+    #[test]
+    fn paint_ranges_are_named_as_session_files_write_them() {
+        for range in [PaintRange::Hdr, PaintRange::Ldr] {
+            assert_eq!(range.name().parse::<PaintRange>(), Ok(range));
+        }
+        assert!(
+            "12-bit"
+                .parse::<PaintRange>()
+                .unwrap_err()
+                .contains("12-bit")
+        );
     }
 }

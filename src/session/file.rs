@@ -4,7 +4,9 @@
 //!   (recovery files only: the user's own file), `[brush]`, `[basis]` and one `[[views]]`
 //!   table per view with its `name`, `muted` flag, `base_dir` (the folder its scene's
 //!   relative object path resolves against) and `unpainted` (`count` or `ignore`: what its
-//!   unpainted pixels say; files written before it existed meant `ignore`).
+//!   unpainted pixels say; files written before it existed meant `ignore`) and `paint_range`
+//!   (`hdr`, or `ldr` for paint imported from an 8-bit file, whose clipped channels are
+//!   bounds; files written before it existed meant `hdr`).
 //! - `views/N/scene.toml`: the view's scene, a SCENE.md file; its `object` is kept as given.
 //! - `views/N/colour.exr`: the colour layer, R, G and B as 32-bit floats (linear, HDR).
 //! - `views/N/coverage.exr`: the coverage layer, one 32-bit float channel `Y`.
@@ -29,7 +31,7 @@ use crate::error::{Error, Result};
 use crate::fs_atomic::write_atomically;
 use crate::image_io::RgbImage;
 use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
-use crate::scene::{ObjectSource, Scene};
+use crate::scene::{ObjectSource, PaintRange, Scene};
 use crate::table::{DIRECTIONS, DirIndex, SymTable};
 use exr::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -133,6 +135,10 @@ struct ViewManifest {
     /// Absent in files written before the rule existed, when only painted pixels counted.
     #[serde(default)]
     unpainted: Option<String>,
+    /// `hdr` or `ldr` (paint imported from an 8-bit file); absent in files written before
+    /// it existed, when every value was read as exact.
+    #[serde(default)]
+    paint_range: Option<String>,
 }
 
 /// What a session file's manifest says, without reading its images.
@@ -229,6 +235,7 @@ pub(crate) fn write_session(
                 muted: v.settings.muted,
                 base_dir: v.settings.scene.base_dir.to_string_lossy().into_owned(),
                 unpainted: Some(v.settings.unpainted.name().to_string()),
+                paint_range: Some(v.settings.paint_range.name().to_string()),
             })
             .collect(),
     };
@@ -393,6 +400,13 @@ fn read_archive<R: Read + Seek>(
                 .map_err(|e| invalid(format!("{MANIFEST}: views[{i}].unpainted: {e}")))?,
         };
 
+        let paint_range = match &view.paint_range {
+            None => PaintRange::Hdr,
+            Some(name) => name
+                .parse()
+                .map_err(|e| invalid(format!("{MANIFEST}: views[{i}].paint_range: {e}")))?,
+        };
+
         embedded_objects.push(match scene.object_source() {
             ObjectSource::Obj(_) => Some(read_entry(
                 path,
@@ -408,6 +422,7 @@ fn read_archive<R: Read + Seek>(
                 scene,
                 muted: view.muted,
                 unpainted,
+                paint_range,
             },
             paint: PaintLayers { colour, coverage },
             base,

@@ -17,7 +17,7 @@ use crate::basis::BasisSpec;
 use crate::error::Result;
 use crate::materials::database::DatabaseSpec;
 use crate::paint::{BrushSettings, PaintLayers, UnpaintedPixels};
-use crate::scene::{GBuffer, Object, Scene, guide_image};
+use crate::scene::{GBuffer, Object, PaintRange, Scene, guide_image};
 use crate::solver::{Policy, Regularization};
 
 /// Everything the artist made: the views with their paintings, the brush and the basis.
@@ -66,6 +66,10 @@ pub struct ViewSettings {
     pub muted: bool,
     /// What the pixels the artist did not paint say.
     pub unpainted: UnpaintedPixels,
+    /// What the paint's values can express: `Ldr` once an 8-bit painting was imported, whose
+    /// clipped channels say only "at least this bright" (as `burnish reconstruct` reads the
+    /// same file).
+    pub paint_range: PaintRange,
 }
 
 impl ViewSettings {
@@ -76,6 +80,7 @@ impl ViewSettings {
             scene,
             muted: false,
             unpainted: UnpaintedPixels::default(),
+            paint_range: PaintRange::Hdr,
         }
     }
 }

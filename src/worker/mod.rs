@@ -23,7 +23,7 @@ use crate::bench::oracle::OracleProjector;
 use crate::image_io::RgbImage;
 use crate::next_view::{RankedView, candidate_scenes, rank_views};
 use crate::paint::PixelChange;
-use crate::scene::{GBuffer, Object, Scene, render_table, sample_pixel};
+use crate::scene::{GBuffer, Object, PaintRange, Scene, render_table, sample_pixel_in};
 use crate::solver::{
     BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
 };
@@ -62,10 +62,12 @@ pub enum Command {
         input_time: Instant,
     },
     /// Replace every pixel a view states at once (import, session open, a new base under the
-    /// paint, a change of the view's rule for unpainted pixels).
+    /// paint, a change of the view's rule for unpainted pixels), and what their values can
+    /// express (an 8-bit import's clipped channels are bounds).
     ReplacePaint {
         view: ViewId,
         painted: Vec<(u32, [f32; 3])>,
+        range: PaintRange,
     },
     SetPolicy(Policy),
     SetRegularization(Regularization),
@@ -257,6 +259,8 @@ struct ViewSamples {
     muted: bool,
     /// Painted pixels and their radiance, whether or not they give a sample.
     painted: HashMap<u32, [f32; 3]>,
+    /// What the painted values can express.
+    range: PaintRange,
 }
 
 struct WorkerState {
@@ -386,6 +390,7 @@ impl WorkerState {
                     gbuffer: gbuffer.clone(),
                     muted: false,
                     painted: HashMap::new(),
+                    range: PaintRange::Hdr,
                 });
                 state.gbuffer = gbuffer;
                 self.resample_view(view, changes);
@@ -404,9 +409,14 @@ impl WorkerState {
                     self.resample_view(view, changes);
                 }
             }
-            Command::ReplacePaint { view, painted } => {
+            Command::ReplacePaint {
+                view,
+                painted,
+                range,
+            } => {
                 if let Some(state) = self.views.get_mut(&view) {
                     state.painted = painted.into_iter().collect();
+                    state.range = range;
                     self.sparse.remove_view(view, changes);
                     self.resample_view(view, changes);
                 }
@@ -478,14 +488,7 @@ impl WorkerState {
             let mut pixels: Vec<_> = state.painted.iter().map(|(&p, &c)| (p, c)).collect();
             pixels.sort_unstable_by_key(|&(p, _)| p);
             for (pixel, colour) in pixels {
-                set_pixel(
-                    &mut self.sparse,
-                    &state.gbuffer,
-                    view,
-                    pixel,
-                    Some(colour),
-                    changes,
-                );
+                set_pixel(&mut self.sparse, state, view, pixel, Some(colour), changes);
             }
         }
         self.recount_skipped();
@@ -513,7 +516,7 @@ impl WorkerState {
             if !state.muted {
                 set_pixel(
                     &mut self.sparse,
-                    &state.gbuffer,
+                    state,
                     view,
                     edit.pixel,
                     edit.after,
@@ -596,21 +599,30 @@ impl WorkerState {
 }
 
 /// Puts one pixel's sample into the sparse table, or takes it out (no paint, or the pixel
-/// gives no usable sample).
+/// gives no usable sample), read in the view's paint range as `burnish reconstruct` reads
+/// a painting file.
 fn set_pixel(
     sparse: &mut SparseTable,
-    gbuffer: &GBuffer,
+    samples: &ViewSamples,
     view: ViewId,
     pixel: u32,
     radiance: Option<[f32; 3]>,
     changes: &mut Vec<BinChange>,
 ) {
     let key = SampleKey { view, pixel };
-    let sample = radiance.and_then(|r| sample_pixel(gbuffer, pixel as usize, r).ok());
+    let sample = radiance
+        .and_then(|r| sample_pixel_in(&samples.gbuffer, pixel as usize, r, samples.range).ok());
     match sample {
         Some(sample) => {
             if sparse
-                .set_sample(key, sample.light_bin, sample.view_bin, sample.rho, changes)
+                .set_bounded_sample(
+                    key,
+                    sample.light_bin,
+                    sample.view_bin,
+                    sample.rho,
+                    sample.bounds,
+                    changes,
+                )
                 .is_err()
             {
                 sparse.remove_sample(key, changes);

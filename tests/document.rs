@@ -1,0 +1,177 @@
+//! The document without a window: views, imports, the worker and session files driven as a
+//! script would drive them, with no egui in sight. What it solves is held against what
+//! `burnish reconstruct` computes from the same files.
+
+mod common;
+
+use burnish::basis::Basis;
+use burnish::document::{Document, DocumentConfig, Event};
+use burnish::paint::BrushSettings;
+use burnish::scene::{PaintRange, Scene, read_painting, samples_from_file, write_png};
+use burnish::session::BasisSettings;
+use burnish::solver::{Policy, Regularization, Solver, SparseTable};
+use burnish::worker::Snapshot;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
+
+const RESOLUTION: usize = 128;
+
+/// A document on `basis`, without autosave, its basis taken in.
+fn headless(basis: &Arc<Basis>) -> Document {
+    let mut doc = Document::new(DocumentConfig {
+        basis: Some(basis.clone()),
+        basis_cache: None,
+        basis_settings: BasisSettings {
+            components: basis.components(),
+            ..Default::default()
+        },
+        autosave: false,
+        recovery_file: None,
+    });
+    doc.poll();
+    doc
+}
+
+/// The snapshot that includes everything the document has sent the worker.
+fn synced(doc: &mut Document) -> Arc<Snapshot> {
+    doc.poll();
+    doc.worker()
+        .sync(Duration::from_secs(60))
+        .expect("the worker answers")
+}
+
+/// The default sphere's guide, warmed and brightened "in an external editor" until its lit
+/// side clips, as an 8-bit PNG in `dir`.
+fn clipped_png(doc: &mut Document, dir: &Path) -> std::path::PathBuf {
+    let guide = dir.join("guide.png");
+    doc.export_guide(&guide).unwrap();
+    let mut image = read_painting(&guide, RESOLUTION).unwrap();
+    for p in &mut image.pixels {
+        *p = [p[0] * 2.5, p[1] * 1.4, p[2] * 0.7];
+    }
+    let painting = dir.join("painting.png");
+    write_png(&painting, &image).unwrap();
+    let clipped = read_painting(&painting, RESOLUTION)
+        .unwrap()
+        .pixels
+        .iter()
+        .filter(|p| p[0] == 1.0)
+        .count();
+    assert!(clipped > 1_000, "{clipped} clipped pixels");
+    painting
+}
+
+/// What `burnish reconstruct --view SCENE=PAINTING` solves, through the same public parts
+/// it uses: the painting's samples read by the file's kind (or as `range` says), binned and
+/// solved by the default prior.
+fn reconstruct_like_the_cli(
+    basis: &Arc<Basis>,
+    doc: &Document,
+    painting: &Path,
+    range: PaintRange,
+) -> Vec<[f64; 3]> {
+    let gbuffer = doc.views()[0].gbuffer();
+    let set = match range {
+        PaintRange::Ldr => samples_from_file(gbuffer, painting).unwrap(),
+        PaintRange::Hdr => burnish::scene::samples_from_image(
+            gbuffer,
+            &read_painting(painting, RESOLUTION).unwrap(),
+        ),
+    };
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut changes = Vec::new();
+    set.insert_into(0, &mut table, &mut changes).unwrap();
+    let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+    solver.apply_all(&changes);
+    solver.solve().coefficients
+}
+
+/// The largest difference between two coefficient sets, relative to the largest coefficient.
+fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = b
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, c| m.max(c.abs()))
+        .max(1e-12);
+    a.iter()
+        .zip(b)
+        .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs()))
+        .fold(0.0, f64::max)
+        / scale
+}
+
+#[test]
+fn an_8_bit_import_solves_as_burnish_reconstruct_reads_the_file() {
+    let basis = common::small_basis(8);
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = headless(&basis);
+    doc.add_view(Scene {
+        resolution: RESOLUTION as u32,
+        ..Scene::default()
+    })
+    .unwrap();
+    let painting = clipped_png(&mut doc, dir.path());
+    doc.import_painting(&painting).unwrap();
+    assert_eq!(doc.views()[0].paint_range(), PaintRange::Ldr);
+    let said: Vec<String> = doc
+        .take_events()
+        .into_iter()
+        .filter_map(|e| match e {
+            Event::Notice(n) => Some(n.text),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        said.iter().any(|t| t.contains("8 bits")),
+        "the import says how it reads the file: {said:?}"
+    );
+
+    let bounded = reconstruct_like_the_cli(&basis, &doc, &painting, PaintRange::Ldr);
+    let exact = reconstruct_like_the_cli(&basis, &doc, &painting, PaintRange::Hdr);
+    let apart = relative_difference(&bounded, &exact);
+    assert!(apart > 1e-3, "the bounds change the solve ({apart})");
+    let snapshot = synced(&mut doc);
+    let worst = relative_difference(&snapshot.coefficients, &bounded);
+    assert!(worst < 1e-6, "document and CLI differ by {worst}");
+
+    // Read as exact, the same paint gives the exact solve.
+    doc.set_paint_range(0, PaintRange::Hdr);
+    let snapshot = synced(&mut doc);
+    let worst = relative_difference(&snapshot.coefficients, &exact);
+    assert!(
+        worst < 1e-6,
+        "read as exact: document and CLI differ by {worst}"
+    );
+}
+
+#[test]
+fn a_saved_8_bit_view_reopens_read_the_same_way() {
+    let basis = common::small_basis(8);
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = headless(&basis);
+    doc.add_view(Scene {
+        resolution: RESOLUTION as u32,
+        ..Scene::default()
+    })
+    .unwrap();
+    let painting = clipped_png(&mut doc, dir.path());
+    doc.import_painting(&painting).unwrap();
+    let before = synced(&mut doc);
+    let session = dir.path().join("work.burnish");
+    doc.save_session(&session, &BrushSettings::default())
+        .unwrap();
+    assert!(!doc.is_dirty());
+
+    let mut reopened = headless(&basis);
+    reopened.open_session(&session).unwrap();
+    assert_eq!(reopened.views()[0].paint_range(), PaintRange::Ldr);
+    let after = synced(&mut reopened);
+    assert_eq!(after.stats.samples, before.stats.samples);
+    let worst = relative_difference(&after.coefficients, &before.coefficients);
+    assert!(
+        worst < 1e-9,
+        "the reopened session solves otherwise ({worst})"
+    );
+}

@@ -1445,15 +1445,12 @@ fn a_highlight_stroke_changes_the_preview_only_around_the_highlight_when_unpaint
     );
 }
 
-/// Issue 14, workflow 3: a painting made in the app, exported with its mask, reconstructs on
-/// the command line to the table the app shows, under either rule for unpainted pixels.
-#[test]
-fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
-    let dir = tempfile::tempdir().unwrap();
-    let cache = dir.path().join("cache");
+/// The app on a basis of K = 8 over 24 materials built into `cache`, where `burnish
+/// reconstruct --components 8 --materials 24` finds it.
+fn open_app_with_cached_basis(cache: &std::path::Path) -> Harness<'static, BurnishApp> {
     let mut harness = open_app(AppConfig {
         basis: None,
-        basis_cache: Some(cache.clone()),
+        basis_cache: Some(cache.to_path_buf()),
         basis_settings: burnish::session::BasisSettings {
             components: 8,
             materials: 24,
@@ -1468,6 +1465,51 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         harness.step();
     }
     settle(&mut harness);
+    harness
+}
+
+/// Runs `burnish reconstruct --view VIEW --out OUT` on the basis of
+/// [`open_app_with_cached_basis`], with `extra` arguments; fails the test if it fails or
+/// does not load the app's basis.
+fn cli_reconstruct(view: &str, out: &std::path::Path, cache: &std::path::Path, extra: &[&str]) {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_burnish"))
+        .args(["reconstruct", "--view", view, "--out"])
+        .arg(out)
+        .args(["--components", "8", "--materials", "24"])
+        .args(extra)
+        .env("BURNISH_CACHE_DIR", cache)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("loaded from cache"),
+        "the app's basis: {stdout}"
+    );
+}
+
+/// The largest relative difference between two table files over every entry and channel.
+fn worst_relative_difference(a: &std::path::Path, b: &std::path::Path) -> f32 {
+    let a = burnish::table::exr_file::read_table_exr(a).unwrap();
+    let b = burnish::table::exr_file::read_table_exr(b).unwrap();
+    a.pairs()
+        .iter()
+        .zip(b.pairs())
+        .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs() / (1e-3 + y[k].abs())))
+        .fold(0.0f32, f32::max)
+}
+
+/// Issue 14, workflow 3: a painting made in the app, exported with its mask, reconstructs on
+/// the command line to the table the app shows, under either rule for unpainted pixels.
+#[test]
+fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let mut harness = open_app_with_cached_basis(&cache);
     harness.state_mut().brush_mut().colour = [1.6, 1.1, 0.7];
     stroke(&mut harness, (0.3, 0.4), (0.7, 0.5));
     let scene = dir.path().join("scene.toml");
@@ -1497,37 +1539,94 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         );
         let mask = burnish::app::painting_mask_path(&painting);
         let view = format!("{}={}", scene.display(), painting.display());
-        let output = std::process::Command::new(env!("CARGO_BIN_EXE_burnish"))
-            .args(["reconstruct", "--view", &view, "--out"])
-            .arg(&cli_table)
-            .args(["--components", "8", "--materials", "24", "--unpainted"])
-            .arg(rule.name())
-            .arg("--mask")
-            .arg(&mask)
-            .env("BURNISH_CACHE_DIR", &cache)
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&output.stdout);
-        assert!(
-            output.status.success(),
-            "{stdout}\n{}",
-            String::from_utf8_lossy(&output.stderr)
+        let mask = mask.to_str().unwrap();
+        cli_reconstruct(
+            &view,
+            &cli_table,
+            &cache,
+            &["--unpainted", rule.name(), "--mask", mask],
         );
-        assert!(
-            stdout.contains("loaded from cache"),
-            "the app's basis: {stdout}"
-        );
-        let a = burnish::table::exr_file::read_table_exr(&app_table).unwrap();
-        let c = burnish::table::exr_file::read_table_exr(&cli_table).unwrap();
-        let worst = a
-            .pairs()
-            .iter()
-            .zip(c.pairs())
-            .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs() / (1e-3 + y[k].abs())))
-            .fold(0.0f32, f32::max);
+        let worst = worst_relative_difference(&app_table, &cli_table);
         eprintln!("{rule}: worst relative difference app vs CLI {worst:e}");
         assert!(worst < 1e-4, "{rule}: app and CLI tables differ by {worst}");
     }
+}
+
+/// An 8-bit painting made elsewhere means the same in the app as on the command line: its
+/// clipped channels say "at least this bright" to both, so importing it gives the table
+/// `burnish reconstruct` gives. Read as exact values, the same pixels give another table.
+#[test]
+fn an_imported_8_bit_painting_gives_the_app_and_burnish_reconstruct_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let mut harness = open_app_with_cached_basis(&cache);
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        harness.state().document().views()[0].scene().to_toml(),
+    )
+    .unwrap();
+    // The guide, warmed and brightened in an "external editor" until its light side clips.
+    let guide = dir.path().join("guide.png");
+    harness
+        .state_mut()
+        .perform(Action::ExportGuide(guide.clone()));
+    let mut image = burnish::scene::read_painting(&guide, 256).unwrap();
+    for p in &mut image.pixels {
+        *p = [p[0] * 2.5, p[1] * 1.4, p[2] * 0.7];
+    }
+    let painting = dir.path().join("painting.png");
+    burnish::scene::write_png(&painting, &image).unwrap();
+    let decoded = burnish::scene::read_painting(&painting, 256).unwrap();
+    let clipped = decoded.pixels.iter().filter(|p| p[0] == 1.0).count();
+    assert!(clipped > 5_000, "{clipped} clipped pixels");
+
+    harness
+        .state_mut()
+        .perform(Action::ImportPainting(painting.clone()));
+    settle(&mut harness);
+    let app_table = dir.path().join("app.exr");
+    harness
+        .state_mut()
+        .perform(Action::ExportTable(app_table.clone()));
+    settle(&mut harness);
+    assert!(
+        error_texts(&harness).is_empty(),
+        "{:?}",
+        error_texts(&harness)
+    );
+    let cli_table = dir.path().join("cli.exr");
+    let view = format!("{}={}", scene.display(), painting.display());
+    cli_reconstruct(&view, &cli_table, &cache, &[]);
+    let worst = worst_relative_difference(&app_table, &cli_table);
+    eprintln!("8-bit painting: worst relative difference app vs CLI {worst:e}");
+    assert!(worst < 1e-4, "app and CLI tables differ by {worst}");
+
+    // The decoded pixels as an EXR are exact values, clipped ones included: a different
+    // statement, and a different table, so the agreement above is not a coincidence.
+    let exact_painting = dir.path().join("exact.exr");
+    burnish::scene::write_image(&exact_painting, &decoded).unwrap();
+    let exact_table = dir.path().join("exact-table.exr");
+    let view = format!("{}={}", scene.display(), exact_painting.display());
+    cli_reconstruct(&view, &exact_table, &cache, &[]);
+    let apart = worst_relative_difference(&app_table, &exact_table);
+    assert!(
+        apart > 1e-2,
+        "bounds and exact values gave the same table ({apart})"
+    );
+
+    // The side panel says how the view's paint is read, and can read it as exact instead:
+    // then the app gives the EXR's table.
+    harness.get_by_label("Read as exact").click();
+    settle(&mut harness);
+    let app_exact = dir.path().join("app-exact.exr");
+    harness
+        .state_mut()
+        .perform(Action::ExportTable(app_exact.clone()));
+    settle(&mut harness);
+    let worst = worst_relative_difference(&app_exact, &exact_table);
+    assert!(worst < 1e-4, "read as exact: app and CLI differ by {worst}");
+    assert!(harness.query_by_label("Read as exact").is_none());
 }
 
 /// Issue 14, workflow 2: fill the object with a base colour, paint a highlight, add a view.

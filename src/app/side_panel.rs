@@ -5,6 +5,7 @@ use super::widgets::light_dial;
 use super::{Action, BurnishApp};
 use crate::basis::BasisSpec;
 use crate::paint::UnpaintedPixels;
+use crate::scene::PaintRange;
 use crate::scene::{BuiltinShape, Projection, Scene};
 use crate::solver::{Policy, Regularization};
 
@@ -88,8 +89,23 @@ fn views_list(app: &mut BurnishApp, ui: &mut egui::Ui) {
                      painted pixels count; the rest is extrapolated",
                 );
         });
+        let read_exact = doc.paint_range() == PaintRange::Ldr
+            && ui
+                .horizontal(|ui| {
+                    ui.label("8-bit paint: clipped channels are lower bounds")
+                        .on_hover_text(
+                            "This view's painting came from an 8-bit file: a channel at its \
+                             top says only \"at least this bright\", as burnish reconstruct \
+                             reads the file",
+                        );
+                    ui.button("Read as exact").clicked()
+                })
+                .inner;
         if rule != doc.unpainted() {
             app.doc.set_unpainted(app.doc.active(), rule);
+        }
+        if read_exact {
+            app.doc.set_paint_range(app.doc.active(), PaintRange::Hdr);
         }
         ui.horizontal(|ui| {
             if ui

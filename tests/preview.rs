@@ -763,29 +763,60 @@ fn painting_reruns_only_the_gather() {
         }
     }
 
-    // A draft (while a stroke is painted) shades one pixel per 2 × 2 block for the block;
-    // the full frame after it is the full frame again, without new geometry.
+    // A draft (while a stroke is painted) shades one pixel per 2 × 2 block for the block, at
+    // the bins nearest its directions (one table read where interpolation takes up to
+    // sixteen): what the full frame without interpolation shows at that pixel. The full
+    // frame after it is the full frame again, without new geometry.
     frame.exposure_stops = 0.0;
     let full = render(&gpu, &mut r, &frame, 128);
+    let nearest = {
+        let mut fresh = renderer(&gpu);
+        fresh.set_basis(&basis).unwrap();
+        fresh.set_object(&object).unwrap();
+        fresh.set_coefficients(&coefficients(&basis, 1)).unwrap();
+        fresh
+            .update_sparse(&[sparse_bin(PairIndex::from_index(17), Some([0.1; 3]))])
+            .unwrap();
+        let mut frame = frame.clone();
+        frame.interpolate = false;
+        render(&gpu, &mut fresh, &frame, 128)
+    };
     frame.draft = true;
     let draft = render(&gpu, &mut r, &frame, 128);
+    let (mut blocks, mut other_bin) = (0, 0);
     for by in (0..128).step_by(2) {
         for bx in (0..128).step_by(2) {
             let block = [(bx, by), (bx + 1, by), (bx, by + 1), (bx + 1, by + 1)];
             let first = block
                 .iter()
                 .find(|&&(x, y)| full.get(x, y) != frame.background);
+            let Some(&(fx, fy)) = first else {
+                assert!(
+                    block
+                        .iter()
+                        .all(|&(x, y)| draft.get(x, y) == frame.background)
+                );
+                continue;
+            };
+            blocks += 1;
+            let shown = draft.get(fx, fy);
+            // Where a direction lies on a bin boundary, rounding may pick the neighbour.
+            other_bin += usize::from(shown != nearest.get(fx, fy));
             for &(x, y) in &block {
                 let expected = if full.get(x, y) == frame.background {
                     frame.background
                 } else {
-                    let (fx, fy) = *first.expect("a covered pixel");
-                    full.get(fx, fy)
+                    shown
                 };
                 assert_eq!(draft.get(x, y), expected, "({x}, {y})");
             }
         }
     }
+    eprintln!("draft: {other_bin} of {blocks} blocks at a neighbouring bin");
+    assert!(
+        other_bin * 100 <= blocks,
+        "{other_bin} of {blocks} draft blocks are not the nearest bins' value"
+    );
     assert_ne!(draft.pixels, full.pixels);
     frame.draft = false;
     assert_eq!(render(&gpu, &mut r, &frame, 128).pixels, full.pixels);

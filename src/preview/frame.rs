@@ -140,8 +140,9 @@ pub struct PreviewFrame {
     pub tangent_reference: [f64; 3],
     /// Linear colour off the object.
     pub background: [f32; 3],
-    /// Shade one pixel of each 2 × 2 block for the others (a quarter of the gather), as
-    /// while a stroke is being painted; the full frame refines it.
+    /// Shade one pixel of each 2 × 2 block for the others, at the nearest bins even when
+    /// `interpolate` is set (a quarter of the pixels, one table read each instead of up to
+    /// sixteen), as while a stroke is being painted; the full frame refines it.
     pub draft: bool,
 }
 

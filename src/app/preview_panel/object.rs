@@ -273,8 +273,8 @@ pub(super) fn object_tab(app: &mut BurnishApp, ui: &mut egui::Ui) -> Option<egui
     if let Some(error) = error {
         app.notify_error(format!("preview: {error}"));
     }
-    // While a stroke is painted on the canvas, a draft (a quarter of the gather); the stroke's
-    // end refines it.
+    // While a stroke is painted on the canvas, a draft (a quarter of the pixels, at the
+    // nearest bins); the stroke's end refines it.
     let canvas = app.canvas_layout().map(|(rect, _)| rect);
     app.preview.draft = ui.input(|i| {
         i.pointer.primary_down()

@@ -874,44 +874,74 @@ fn the_environment_light_reads_the_table() {
             )
         })
         .collect();
+    // The CPU's sum at pixel (x, y) over the first `used` samples, each standing for
+    // `share` of them.
+    let cpu_sum = |x: usize, y: usize, used: usize, share: f64| -> Option<[f32; 3]> {
+        let p = gbuffer.get(x, y)?;
+        let view_bin = p.view_bin?;
+        let (n, t, b) = (
+            p.normal.as_dvec3(),
+            p.tangent.as_dvec3(),
+            p.bitangent().as_dvec3(),
+        );
+        let mut sum = [0.0f64; 3];
+        for (d, w) in &samples[..used] {
+            let l = DVec3::new(d.dot(t), d.dot(b), d.dot(n));
+            if l.z > 0.0 {
+                let rho = table.get(direction_index(l.normalize()).unwrap(), view_bin);
+                for c in 0..3 {
+                    sum[c] += rho[c] as f64 * w[c] * l.z * share;
+                }
+            }
+        }
+        let shadow = if p.is_lit() { [0.0; 3] } else { SHADOW };
+        Some([0, 1, 2].map(|c| (shadow[c] as f64 + sum[c]) as f32))
+    };
     let mut checked = 0;
     let mut close = 0;
     for y in 0..128 {
         for x in 0..128 {
-            let Some(p) = gbuffer.get(x, y) else {
+            let Some(expected) = cpu_sum(x, y, samples.len(), 1.0) else {
                 continue;
             };
-            let Some(view_bin) = p.view_bin else {
-                continue;
-            };
-            let (n, t, b) = (
-                p.normal.as_dvec3(),
-                p.tangent.as_dvec3(),
-                p.bitangent().as_dvec3(),
-            );
-            let mut expected = [0.0f64; 3];
-            if !p.is_lit() {
-                expected = SHADOW.map(f64::from);
-            }
-            for (d, w) in &samples {
-                let l = DVec3::new(d.dot(t), d.dot(b), d.dot(n));
-                if l.z > 0.0 {
-                    let rho = table.get(direction_index(l.normalize()).unwrap(), view_bin);
-                    for c in 0..3 {
-                        expected[c] += rho[c] as f64 * w[c] * l.z;
-                    }
-                }
-            }
-            let shown = image.get(x, y);
-            let expected = expected.map(|v| v as f32);
             checked += 1;
-            if within_2_percent(shown, expected) {
+            if within_2_percent(image.get(x, y), expected) {
                 close += 1;
             }
         }
     }
     eprintln!("{close} of {checked} pixels within 2% of the CPU's sum");
     assert!(checked > 8000);
+    assert!(
+        close as f64 >= 0.97 * checked as f64,
+        "{close} of {checked}"
+    );
+
+    // A draft (while a stroke is painted) reads the first quarter of the directions, each
+    // for four, at the pixel that stands for its 2 × 2 block.
+    frame.draft = true;
+    let draft = render(&gpu, &mut r, &frame, 128);
+    let (mut checked, mut close) = (0, 0);
+    for by in (0..128).step_by(2) {
+        for bx in (0..128).step_by(2) {
+            let block = [(bx, by), (bx + 1, by), (bx, by + 1), (bx + 1, by + 1)];
+            let Some(&(x, y)) = block
+                .iter()
+                .find(|&&(x, y)| image.get(x, y) != frame.background)
+            else {
+                continue;
+            };
+            let Some(expected) = cpu_sum(x, y, ENVIRONMENT_DIRECTIONS / 4, 4.0) else {
+                continue;
+            };
+            checked += 1;
+            if within_2_percent(draft.get(x, y), expected) {
+                close += 1;
+            }
+        }
+    }
+    eprintln!("draft: {close} of {checked} blocks within 2% of the CPU's sum");
+    assert!(checked > 2000);
     assert!(
         close as f64 >= 0.97 * checked as f64,
         "{close} of {checked}"

@@ -5,8 +5,7 @@ use super::widgets::light_dial;
 use super::{Action, BurnishApp};
 use crate::basis::BasisSpec;
 use crate::paint::UnpaintedPixels;
-use crate::scene::PaintRange;
-use crate::scene::{BuiltinShape, Projection, Scene};
+use crate::scene::{BuiltinShape, PaintRange, Projection, Scene};
 use crate::solver::{Policy, Regularization};
 
 const SHAPES: [BuiltinShape; 4] = [

@@ -458,16 +458,7 @@ fn an_imported_painting_is_one_edit_that_undo_takes_back() {
         .clone();
     let guide_samples = harness.state().document().snapshot().stats.samples;
     // The exported guide, brightened in an "external editor", comes back as a painting.
-    let guide_path = dir.path().join("guide.png");
-    harness
-        .state_mut()
-        .perform(Action::ExportGuide(guide_path.clone()));
-    let mut image = burnish::scene::read_painting(&guide_path, 256).unwrap();
-    for p in &mut image.pixels {
-        *p = [p[0] * 1.5, p[1] * 0.8, p[2] * 0.5];
-    }
-    let painting = dir.path().join("painting.png");
-    burnish::scene::write_png(&painting, &image).unwrap();
+    let painting = edited_guide(&mut harness, dir.path(), [1.5, 0.8, 0.5]);
     harness
         .state_mut()
         .perform(Action::ImportPainting(painting.clone()));
@@ -1445,6 +1436,27 @@ fn a_highlight_stroke_changes_the_preview_only_around_the_highlight_when_unpaint
     );
 }
 
+/// The active view's guide, exported to `dir`, each channel scaled by `scale` as in an
+/// external editor, and written back as `dir/painting.png` (8-bit, so it clips at 1).
+fn edited_guide(
+    harness: &mut Harness<'static, BurnishApp>,
+    dir: &std::path::Path,
+    scale: [f32; 3],
+) -> PathBuf {
+    let guide = dir.join("guide.png");
+    harness
+        .state_mut()
+        .perform(Action::ExportGuide(guide.clone()));
+    let resolution = harness.state().document().views()[0].scene().resolution as usize;
+    let mut image = burnish::scene::read_painting(&guide, resolution).unwrap();
+    for p in &mut image.pixels {
+        *p = [0, 1, 2].map(|c| p[c] * scale[c]);
+    }
+    let painting = dir.join("painting.png");
+    burnish::scene::write_png(&painting, &image).unwrap();
+    painting
+}
+
 /// The app on a basis of K = 8 over 24 materials built into `cache`, where `burnish
 /// reconstruct --components 8 --materials 24` finds it.
 fn open_app_with_cached_basis(cache: &std::path::Path) -> Harness<'static, BurnishApp> {
@@ -1567,16 +1579,7 @@ fn an_imported_8_bit_painting_gives_the_app_and_burnish_reconstruct_the_same_tab
     )
     .unwrap();
     // The guide, warmed and brightened in an "external editor" until its light side clips.
-    let guide = dir.path().join("guide.png");
-    harness
-        .state_mut()
-        .perform(Action::ExportGuide(guide.clone()));
-    let mut image = burnish::scene::read_painting(&guide, 256).unwrap();
-    for p in &mut image.pixels {
-        *p = [p[0] * 2.5, p[1] * 1.4, p[2] * 0.7];
-    }
-    let painting = dir.path().join("painting.png");
-    burnish::scene::write_png(&painting, &image).unwrap();
+    let painting = edited_guide(&mut harness, dir.path(), [2.5, 1.4, 0.7]);
     let decoded = burnish::scene::read_painting(&painting, 256).unwrap();
     let clipped = decoded.pixels.iter().filter(|p| p[0] == 1.0).count();
     assert!(clipped > 5_000, "{clipped} clipped pixels");

@@ -62,6 +62,19 @@ fn clipped_png(doc: &mut Document, dir: &Path) -> std::path::PathBuf {
     painting
 }
 
+/// A document with one default sphere view into which [`clipped_png`] was imported.
+fn imported_8_bit_view(basis: &Arc<Basis>, dir: &Path) -> (Document, std::path::PathBuf) {
+    let mut doc = headless(basis);
+    doc.add_view(Scene {
+        resolution: RESOLUTION as u32,
+        ..Scene::default()
+    })
+    .unwrap();
+    let painting = clipped_png(&mut doc, dir);
+    doc.import_painting(&painting).unwrap();
+    (doc, painting)
+}
+
 /// What `burnish reconstruct --view SCENE=PAINTING` solves, through the same public parts
 /// it uses: the painting's samples read by the file's kind (or as `range` says), binned and
 /// solved by the default prior.
@@ -106,14 +119,7 @@ fn relative_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
 fn an_8_bit_import_solves_as_burnish_reconstruct_reads_the_file() {
     let basis = common::small_basis(8);
     let dir = tempfile::tempdir().unwrap();
-    let mut doc = headless(&basis);
-    doc.add_view(Scene {
-        resolution: RESOLUTION as u32,
-        ..Scene::default()
-    })
-    .unwrap();
-    let painting = clipped_png(&mut doc, dir.path());
-    doc.import_painting(&painting).unwrap();
+    let (mut doc, painting) = imported_8_bit_view(&basis, dir.path());
     assert_eq!(doc.views()[0].paint_range(), PaintRange::Ldr);
     let said: Vec<String> = doc
         .take_events()
@@ -150,14 +156,7 @@ fn an_8_bit_import_solves_as_burnish_reconstruct_reads_the_file() {
 fn a_saved_8_bit_view_reopens_read_the_same_way() {
     let basis = common::small_basis(8);
     let dir = tempfile::tempdir().unwrap();
-    let mut doc = headless(&basis);
-    doc.add_view(Scene {
-        resolution: RESOLUTION as u32,
-        ..Scene::default()
-    })
-    .unwrap();
-    let painting = clipped_png(&mut doc, dir.path());
-    doc.import_painting(&painting).unwrap();
+    let (mut doc, _) = imported_8_bit_view(&basis, dir.path());
     let before = synced(&mut doc);
     let session = dir.path().join("work.burnish");
     doc.save_session(&session, &BrushSettings::default())

@@ -1504,6 +1504,20 @@ fn cli_reconstruct(view: &str, out: &std::path::Path, cache: &std::path::Path, e
     );
 }
 
+/// Exports the BRDF as an EXR table to `path` and waits for it (it is written in the
+/// background); fails the test if the app reported an error.
+fn export_table(harness: &mut Harness<'static, BurnishApp>, path: &std::path::Path) {
+    harness
+        .state_mut()
+        .perform(Action::ExportTable(path.to_path_buf()));
+    settle(harness);
+    assert!(
+        error_texts(harness).is_empty(),
+        "{:?}",
+        error_texts(harness)
+    );
+}
+
 /// The largest relative difference between two table files over every entry and channel.
 fn worst_relative_difference(a: &std::path::Path, b: &std::path::Path) -> f32 {
     let a = burnish::table::exr_file::read_table_exr(a).unwrap();
@@ -1539,16 +1553,7 @@ fn the_app_and_burnish_reconstruct_give_the_same_table_for_the_same_painting() {
         harness
             .state_mut()
             .perform(Action::ExportPainting(painting.clone()));
-        harness
-            .state_mut()
-            .perform(Action::ExportTable(app_table.clone()));
-        // The table is written in the background.
-        settle(&mut harness);
-        assert!(
-            error_texts(&harness).is_empty(),
-            "{:?}",
-            error_texts(&harness)
-        );
+        export_table(&mut harness, &app_table);
         let mask = burnish::app::painting_mask_path(&painting);
         let view = format!("{}={}", scene.display(), painting.display());
         let mask = mask.to_str().unwrap();
@@ -1589,15 +1594,7 @@ fn an_imported_8_bit_painting_gives_the_app_and_burnish_reconstruct_the_same_tab
         .perform(Action::ImportPainting(painting.clone()));
     settle(&mut harness);
     let app_table = dir.path().join("app.exr");
-    harness
-        .state_mut()
-        .perform(Action::ExportTable(app_table.clone()));
-    settle(&mut harness);
-    assert!(
-        error_texts(&harness).is_empty(),
-        "{:?}",
-        error_texts(&harness)
-    );
+    export_table(&mut harness, &app_table);
     let cli_table = dir.path().join("cli.exr");
     let view = format!("{}={}", scene.display(), painting.display());
     cli_reconstruct(&view, &cli_table, &cache, &[]);
@@ -1623,10 +1620,7 @@ fn an_imported_8_bit_painting_gives_the_app_and_burnish_reconstruct_the_same_tab
     harness.get_by_label("Read as exact").click();
     settle(&mut harness);
     let app_exact = dir.path().join("app-exact.exr");
-    harness
-        .state_mut()
-        .perform(Action::ExportTable(app_exact.clone()));
-    settle(&mut harness);
+    export_table(&mut harness, &app_exact);
     let worst = worst_relative_difference(&app_exact, &exact_table);
     assert!(worst < 1e-4, "read as exact: app and CLI differ by {worst}");
     assert!(harness.query_by_label("Read as exact").is_none());

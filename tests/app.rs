@@ -1229,7 +1229,7 @@ fn a_failing_autosave_is_reported_once_and_recovers_with_the_disk() {
 /// drops it; File ▸ Export writes the formats other renderers read.
 #[test]
 fn a_session_starts_from_a_material_and_exports_for_other_renderers() {
-    use burnish::bench::oracle::OracleProjector;
+    use burnish::basis::OracleProjector;
     use burnish::export::{BsdfSettings, RglBsdf, load_table, rgl};
     let dir = tempfile::tempdir().unwrap();
     let mut harness = open_app(config());

@@ -4,17 +4,17 @@
 mod common;
 
 use burnish::basis::BasisCache;
-use burnish::bench::analytic_fit::{FitOptions, LambertGgx, fit_lambert_ggx};
+use burnish::basis::OracleProjector;
 use burnish::bench::held_out::{HELD_OUT_SEED, database_materials, hand_built_materials};
 use burnish::bench::live::LiveOptions;
 use burnish::bench::next_view_trial::TrialOptions;
-use burnish::bench::oracle::OracleProjector;
 use burnish::bench::scaling::{ScalingOptions, run_scaling};
 use burnish::bench::{BenchOptions, Config, Paint, VIEWS, ldr_round_trip, run_bench};
 use burnish::materials::database::DatabaseSpec;
 use burnish::materials::tabulate;
 use burnish::metrics::table_errors;
 use burnish::scene::{GBuffer, Object, render_brdf, render_table, samples_from_image};
+use burnish::solver::analytic_fit::{FitOptions, LambertGgx, fit_lambert_ggx};
 use burnish::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{PairIndex, SymTable, pair_multiplicity};
 use common::small_basis;
@@ -52,6 +52,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
         alpha_x: 0.12,
         alpha_y: 0.35,
         rotation: 0.4,
+        specular: 0.8,
     };
     let truth = tabulate(&truth_model);
     // Rendered from the table, each sample is exactly the bin-centre value: noise-free.
@@ -74,6 +75,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
         assert!((m.albedo[c] - truth_model.albedo[c]).abs() < 0.01, "{m:?}");
         assert!((m.f0[c] - truth_model.f0[c]).abs() < 0.01, "{m:?}");
     }
+    assert!((m.specular - truth_model.specular).abs() < 0.02, "{m:?}");
     // Axes turned by π (or swapped and turned by π/2) are the same lobe.
     let turn = (m.rotation - truth_model.rotation).rem_euclid(std::f64::consts::PI);
     let (ax, ay) = if (turn - std::f64::consts::FRAC_PI_2).abs() < 0.3 {
@@ -260,10 +262,10 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             "{t:?}"
         );
     }
-    // Sparse: paper, the global prior, 2 views, LDR, max policy; plus the oracle and the
-    // analytic fit.
-    assert_eq!(report.aggregates.len(), 7, "{:?}", report.aggregates);
-    assert_eq!(report.rows.len(), 2 * 7);
+    // Sparse: paper, the global prior, the fitted mean, 2 views, LDR, max policy; plus the
+    // oracle and the analytic fit.
+    assert_eq!(report.aggregates.len(), 8, "{:?}", report.aggregates);
+    assert_eq!(report.rows.len(), 2 * 8);
     assert_eq!(report.live.scene_skips.len(), 4);
     let stroke = &report.live.stroke;
     assert_eq!(

@@ -97,6 +97,7 @@ fn reconstruct_like_the_cli(
     set.insert_into(0, &mut table, &mut changes).unwrap();
     let mut solver = Solver::new(basis.clone(), Regularization::Auto);
     solver.apply_all(&changes);
+    solver.refit_prior_mean();
     solver.solve().coefficients
 }
 

@@ -59,6 +59,7 @@ fn reconstruct_from_renders(
     }
     let mut solver = Solver::new(basis.clone(), Regularization::Auto);
     solver.apply_all(&changes);
+    solver.refit_prior_mean();
     Reconstruction::new(basis, &solver.solve().coefficients).materialize()
 }
 

@@ -21,6 +21,7 @@ fn reconstruct(samples: &[PixelSample], regularization: Regularization) -> Recon
     }
     let mut solver = Solver::new(basis.clone(), regularization);
     solver.apply_all(&changes);
+    solver.refit_prior_mean();
     Reconstruction::new(basis, &solver.solve().coefficients)
 }
 

@@ -468,3 +468,130 @@ fn the_band_correlation_tightens_only_for_agreeing_bins_spread_over_theta_d() {
     };
     assert_eq!(chosen(&agreeing, &spread, fixed), fixed.band_correlation);
 }
+
+/// The prior's mean fitted to the paint: it follows a material the basis can only guess
+/// from its mean, belongs to the bins it was fitted to and no others, ignores a fit for
+/// another basis, and an empty painting is the database's mean again.
+#[test]
+fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
+    use burnish::metrics::table_errors;
+    use burnish::solver::analytic_fit::LambertGgx;
+    use burnish::solver::{PriorMean, PriorModel};
+
+    let basis = small_basis(20);
+    let truth_brdf = LambertGgx {
+        albedo: [0.25, 0.15, 0.1],
+        f0: [0.04; 3],
+        alpha_x: 0.3,
+        alpha_y: 0.3,
+        rotation: 0.0,
+        specular: 1.0,
+    };
+    let truth = burnish::materials::tabulate(&truth_brdf);
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut changes = Vec::new();
+    for (key, d_l, d_v, rho) in sphere_view_samples(&truth_brdf, 0, 45.0, 30.0, 64) {
+        table.set_sample(key, d_l, d_v, rho, &mut changes).unwrap();
+    }
+    let model = |mean| PriorModel {
+        mean,
+        ..PriorModel::CALIBRATED
+    };
+    let error = |solver: &Solver| {
+        let solution = solver.solve();
+        let estimate = Reconstruction::new(basis.clone(), &solution.coefficients).materialize();
+        table_errors(&truth, &estimate).relative_rmse
+    };
+    let mut database = Solver::with_model(
+        basis.clone(),
+        Regularization::Auto,
+        model(PriorMean::Database),
+    );
+    database.apply_all(&changes);
+    assert!(
+        database.mean_fit_request().is_none(),
+        "the database's mean needs no fit"
+    );
+    database.refit_prior_mean();
+    assert_eq!(database.effective_prior_mean(), None);
+
+    let always = PriorMean::Fitted {
+        margin_nats: f64::NEG_INFINITY,
+    };
+    let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
+    fitted.apply_all(&changes);
+    let request = fitted
+        .mean_fit_request()
+        .expect("painted bins ask for a fit");
+    assert_eq!(request.bins(), table.observed_count());
+    assert_eq!(fitted.effective_prior_mean(), None, "no fit installed yet");
+    let early = request.run();
+    assert!(fitted.install_fitted_mean(early.clone()));
+    assert!(fitted.prior_mean_is_current());
+    assert!(
+        !fitted.install_fitted_mean(early.clone()),
+        "the same fit twice changes nothing"
+    );
+    let (with_fit, without) = (error(&fitted), error(&database));
+    println!("relative RMSE: fitted mean {with_fit:.4}, database mean {without:.4}");
+    assert!(
+        with_fit < 0.8 * without,
+        "a Lambert + GGX material is rebuilt better on its fitted mean: {with_fit} vs {without}"
+    );
+
+    // One more bin: the installed fit is stale until a fit of the new bins arrives.
+    let mut more = Vec::new();
+    for (key, d_l, d_v, rho) in sphere_view_samples(&truth_brdf, 1, 60.0, 200.0, 32) {
+        table.set_sample(key, d_l, d_v, rho, &mut more).unwrap();
+    }
+    fitted.apply_all(&more);
+    assert!(!fitted.prior_mean_is_current());
+    assert!(
+        fitted.effective_prior_mean().is_some(),
+        "the stale fit stands in"
+    );
+    let other_basis = small_basis(10);
+    let mut elsewhere = Solver::with_model(other_basis, Regularization::Auto, model(always));
+    elsewhere.apply_all(&changes);
+    elsewhere.apply_all(&more);
+    let foreign = elsewhere.mean_fit_request().unwrap().run();
+    assert!(
+        !fitted.install_fitted_mean(foreign),
+        "a fit on another basis is ignored"
+    );
+    assert!(!fitted.prior_mean_is_current());
+    fitted.refit_prior_mean();
+    assert!(fitted.prior_mean_is_current());
+    assert_ne!(
+        fitted.effective_prior_mean().map(<[_]>::to_vec),
+        Some(early.coefficients),
+        "the new bins' fit replaced the first"
+    );
+
+    // A start keeps precedence, and an empty painting is the database's mean.
+    let start = vec![[0.5; 3]; basis.components()];
+    let mut started = fitted.clone();
+    started.set_prior_mean(Some(start.clone()));
+    assert_eq!(started.effective_prior_mean(), Some(&start[..]));
+    assert!(started.mean_fit_request().is_none());
+    let cleared: Vec<BinChange> = table
+        .observed()
+        .map(|(pair, _)| BinChange {
+            pair,
+            after: None,
+            ..BinChange::observed(pair, [0.0; 3], burnish::solver::EXACT)
+        })
+        .collect();
+    fitted.apply_all(&cleared);
+    assert_eq!(fitted.observed_bins(), 0);
+    assert_eq!(fitted.effective_prior_mean(), None);
+    assert!(fitted.prior_mean_is_current());
+    assert!(
+        fitted
+            .solve()
+            .coefficients
+            .iter()
+            .flatten()
+            .all(|&x| x == 0.0)
+    );
+}

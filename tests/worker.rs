@@ -45,6 +45,16 @@ type PaintedView<'a> = (u32, &'a GBuffer, &'a [(u32, [f32; 3])]);
 
 /// The coefficients a from-scratch batch solve gives for these samples.
 fn batch_solution(basis: Arc<burnish::basis::Basis>, views: &[PaintedView]) -> Vec<[f64; 3]> {
+    batch_solution_with(basis, views, burnish::solver::PriorModel::CALIBRATED)
+}
+
+/// [`batch_solution`] under `model`, its prior's mean fitted first when the model says so
+/// (as `burnish reconstruct` does).
+fn batch_solution_with(
+    basis: Arc<burnish::basis::Basis>,
+    views: &[PaintedView],
+    model: burnish::solver::PriorModel,
+) -> Vec<[f64; 3]> {
     let mut sparse = SparseTable::new(Policy::Mean);
     let mut changes = Vec::new();
     for &(view, gbuffer, paint) in views {
@@ -62,13 +72,14 @@ fn batch_solution(basis: Arc<burnish::basis::Basis>, views: &[PaintedView]) -> V
             }
         }
     }
-    let mut solver = Solver::new(basis, Regularization::Auto);
+    let mut solver = Solver::with_model(basis, Regularization::Auto, model);
     let all: Vec<_> = sparse
         .observed()
         .map(|(pair, v)| burnish::solver::BinChange::observed(pair, v, burnish::solver::EXACT))
         .collect();
     solver.apply_all(&all);
     solver.rebuild();
+    solver.refit_prior_mean();
     solver.solve().coefficients
 }
 
@@ -374,4 +385,63 @@ fn analyses_answer_from_the_state_when_asked() {
         }
     }
     assert!(predicted && uncertain && ranked);
+}
+
+/// With the prior centred on a fit of the paint, the worker fits off its solve loop and a
+/// sync waits for the fit: what it returns is what a one-shot solve of the same bins gives
+/// (`burnish reconstruct --prior-mean`), and differs from the database-centred solve.
+#[test]
+fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
+    use burnish::solver::{PriorMean, PriorModel};
+    let basis = common::small_basis(8);
+    let (_, gbuffer) = view(30.0);
+    let paint = painting(&gbuffer);
+    let always = PriorMean::Fitted {
+        margin_nats: f64::NEG_INFINITY,
+    };
+    let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    worker.send(Command::SetPriorMean(always));
+    worker.send(Command::SetView {
+        view: 0,
+        gbuffer: gbuffer.clone(),
+    });
+    worker.send(Command::SetBasis(basis.clone()));
+    for chunk in paint.chunks(300) {
+        worker.send(Command::Pixels {
+            view: 0,
+            edits: chunk
+                .iter()
+                .map(|&(pixel, colour)| PixelChange {
+                    pixel,
+                    before: None,
+                    after: Some(colour),
+                })
+                .collect(),
+            input_time: Instant::now(),
+        });
+    }
+    let snapshot = sync(&worker);
+    assert!(!snapshot.fitting_mean, "a sync answers once the fit is in");
+
+    let model = PriorModel {
+        mean: always,
+        ..PriorModel::CALIBRATED
+    };
+    let expected = batch_solution_with(basis.clone(), &[(0, &gbuffer, &paint)], model);
+    assert!(
+        close(&snapshot.coefficients, &expected, 1e-9),
+        "worker {:?} vs one-shot {:?}",
+        &snapshot.coefficients[..2],
+        &expected[..2]
+    );
+    let database = batch_solution(basis, &[(0, &gbuffer, &paint)]);
+    assert!(
+        !close(&snapshot.coefficients, &database, 1e-3),
+        "the fitted mean moved the solution"
+    );
+
+    // Back to the database's mean: the same paint solves as it always did.
+    worker.send(Command::SetPriorMean(PriorMean::Database));
+    let back = sync(&worker);
+    assert!(close(&back.coefficients, &database, 1e-9));
 }

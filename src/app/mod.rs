@@ -386,8 +386,9 @@ impl eframe::App for BurnishApp {
         {
             ctx.request_repaint();
         }
-        if self.doc.file_jobs_pending() {
-            // Look again soon: a finished job's outcome is taken at the next frame.
+        if self.doc.file_jobs_pending() || self.doc.snapshot().fitting_mean {
+            // Look again soon: a finished job's outcome, or the solve on the prior's mean
+            // fitted to the last strokes, is taken at the next frame.
             ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
         if ctx.input(|i| i.viewport().close_requested()) {

@@ -24,6 +24,12 @@ pub(super) fn show(app: &mut BurnishApp, ui: &mut egui::Ui) {
         ui.separator();
         ui.label(format!("cond {:.2e}", stats.condition_number));
         ui.separator();
+        if app.doc.snapshot().fitting_mean {
+            ui.label("fitting…").on_hover_text(
+                "The prior's mean is being fitted to the paint; the preview updates when done",
+            );
+            ui.separator();
+        }
         match app.doc.basis_status() {
             BasisStatus::Working { stage, fraction } => {
                 ui.label(format!("basis: {stage}"));

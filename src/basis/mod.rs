@@ -8,9 +8,11 @@
 
 pub mod build;
 pub mod cache;
+pub mod projection;
 
 pub use build::{BasisSpec, BuildProgress, build_basis};
 pub use cache::{BasisCache, CacheOutcome};
+pub use projection::OracleProjector;
 
 use crate::table::{PAIRS, PHI_BINS, PairIndex, THETA_BINS, pair_directions, theta_centre};
 use std::sync::OnceLock;

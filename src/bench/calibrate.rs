@@ -24,8 +24,8 @@ use crate::scene::{
     samples_from_image_in,
 };
 use crate::solver::{
-    BinChange, Censoring, KnotSpacing, Policy, PriorModel, Reconstruction, Regularization, Solver,
-    SparseTable,
+    BinChange, Censoring, KnotSpacing, Policy, PriorMean, PriorModel, Reconstruction,
+    Regularization, Solver, SparseTable,
 };
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -50,7 +50,7 @@ impl Candidate {
             format!("global α={}", self.alpha)
         } else {
             format!(
-                "bands={} {} ℓ={} α={} ρ={}{} β={} κ={} {}",
+                "bands={} {} ℓ={} α={} ρ={}{} β={} κ={} {} mean={}",
                 m.bands,
                 m.knots.name(),
                 m.band_length,
@@ -59,7 +59,8 @@ impl Candidate {
                 if m.correlation_by_evidence { "+ev" } else { "" },
                 m.brightness_exponent,
                 m.brightness_floor,
-                m.censoring.name()
+                m.censoring.name(),
+                m.mean.name()
             )
         }
     }
@@ -147,6 +148,8 @@ pub struct Grid {
     pub correlation_by_evidence: Vec<bool>,
     /// [`PriorModel::censoring`] settings (they change LDR cases only).
     pub censoring: Vec<Censoring>,
+    /// [`PriorModel::mean`] settings.
+    pub means: Vec<PriorMean>,
 }
 
 impl Grid {
@@ -161,6 +164,7 @@ impl Grid {
             band_lengths: vec![0.0],
             correlation_by_evidence: vec![true],
             censoring: vec![Censoring::CALIBRATED],
+            means: vec![PriorModel::CALIBRATED.mean],
         }
     }
 
@@ -182,7 +186,11 @@ impl Grid {
                 for &band_correlation in &self.band_correlations {
                     for &(brightness_exponent, brightness_floor) in &self.brightness {
                         for &correlation_by_evidence in &self.correlation_by_evidence {
-                            for &censoring in &self.censoring {
+                            for (&censoring, &mean) in self
+                                .censoring
+                                .iter()
+                                .flat_map(|c| self.means.iter().map(move |m| (c, m)))
+                            {
                                 candidates.push(Candidate {
                                     alpha,
                                     model: PriorModel {
@@ -193,6 +201,7 @@ impl Grid {
                                         band_length,
                                         correlation_by_evidence,
                                         censoring,
+                                        mean,
                                         ..PriorModel::CALIBRATED
                                     },
                                 });
@@ -375,6 +384,7 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
                                 c.model,
                             );
                             solver.apply_all(changes);
+                            solver.refit_prior_mean();
                             let solution = solver.solve();
                             let estimate = Reconstruction::with_knots(
                                 basis.clone(),

@@ -65,6 +65,7 @@ fn reconstruct(
     let mut solver =
         Solver::with_model(basis.clone(), Regularization::Auto, PriorModel::CALIBRATED);
     solver.apply_all(&changes);
+    solver.refit_prior_mean();
     (solver, table.observed().map(|(pair, _)| pair).collect())
 }
 

@@ -140,6 +140,7 @@ pub fn probe(basis: &Arc<Basis>, view: &GBuffer) -> Vec<StabilityCase> {
             }
             let mut solver = Solver::new(basis.clone(), regularization);
             solver.apply_all(&changes);
+            solver.refit_prior_mean();
             let solution = solver.solve();
             let recon = Reconstruction::new(basis.clone(), &solution.coefficients).materialize();
             let values = recon.pairs();

@@ -52,6 +52,10 @@ pub struct CalibrateArgs {
     /// steps; 0 takes the clip as a value) or omit (default: bounds:200).
     #[arg(long, value_delimiter = ',')]
     pub censoring: Option<Vec<crate::solver::Censoring>>,
+    /// Where the prior is centred, to score: database, fitted (Lambert + GGX fitted to the
+    /// paint) or fitted:M (when the evidence gains more than M nats).
+    #[arg(long, value_delimiter = ',')]
+    pub mean: Option<Vec<crate::solver::PriorMean>>,
     /// Paint to score the candidates on: hdr, ldr or hdr,ldr (default: both).
     #[arg(long, value_delimiter = ',', value_parser = <PaintRange as std::str::FromStr>::from_str)]
     pub paint: Option<Vec<PaintRange>>,
@@ -130,6 +134,9 @@ fn grid(args: &CalibrateArgs) -> anyhow::Result<Grid> {
     }
     if let Some(censoring) = &args.censoring {
         grid.censoring = censoring.clone();
+    }
+    if let Some(means) = &args.mean {
+        grid.means = means.clone();
     }
     anyhow::ensure!(
         !grid.candidates().is_empty(),
@@ -242,6 +249,7 @@ mod tests {
             band_lengths: None,
             evidence: None,
             censoring: None,
+            mean: None,
             paint: None,
         }
     }

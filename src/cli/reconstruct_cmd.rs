@@ -1,14 +1,16 @@
 //! `burnish reconstruct`: paintings of one or more views → a full BRDF table.
 
 use super::scene_cmds::scene_gbuffer;
+use crate::basis::OracleProjector;
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
-use crate::bench::oracle::OracleProjector;
 use crate::export::load_table;
 use crate::materials::database::DatabaseSpec;
 use crate::metrics::evaluate;
 use crate::paint::UnpaintedPixels;
 use crate::scene::{Scene, read_painting, samples_from_file};
-use crate::solver::{BinChange, Policy, Reconstruction, Regularization, Solver, SparseTable};
+use crate::solver::{
+    BinChange, Policy, PriorMean, PriorModel, Reconstruction, Regularization, Solver, SparseTable,
+};
 use crate::table::{exr_file::write_table_exr, merl::MerlBrdf};
 use anyhow::bail;
 use std::path::PathBuf;
@@ -84,6 +86,11 @@ pub struct ReconstructArgs {
     /// prior:α or ridge:λ.
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
+    /// Where the prior is centred without --start: database (the database's mean material),
+    /// fitted:M (Lambert + GGX fitted to the paint, when it makes the paint e^M times more
+    /// likely) or fitted (always).
+    #[arg(long, default_value = "database")]
+    pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.
     #[arg(long, default_value = "mean")]
     pub policy: Policy,
@@ -248,13 +255,19 @@ pub(crate) fn start_coefficients(
 pub(crate) fn solve_views(
     basis: Arc<Basis>,
     regularization: Regularization,
+    mean: PriorMean,
     start_mean: Option<Vec<[f64; 3]>>,
     painted: &PaintedViews,
 ) -> Solver {
     let start = Instant::now();
-    let mut solver = Solver::new(basis, regularization);
+    let model = PriorModel {
+        mean,
+        ..PriorModel::CALIBRATED
+    };
+    let mut solver = Solver::with_model(basis, regularization, model);
     solver.set_prior_mean(start_mean);
     solver.apply_all(&painted.changes);
+    solver.refit_prior_mean();
     let solution = solver.solve();
     println!(
         "solve: {} observed bins, {} inconsistent, α = {:.3e}, condition number {:.3e}, {:.1} ms",
@@ -279,7 +292,13 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     let start_mean = start_material
         .as_ref()
         .map(|(path, material)| start_coefficients(&basis, path, material));
-    let solver = solve_views(basis.clone(), args.lambda, start_mean, &painted);
+    let solver = solve_views(
+        basis.clone(),
+        args.lambda,
+        args.prior_mean,
+        start_mean,
+        &painted,
+    );
     let solution = solver.solve();
 
     let start = Instant::now();

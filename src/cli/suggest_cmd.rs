@@ -3,7 +3,7 @@
 use super::reconstruct_cmd::{BasisOptions, ViewArg, load_basis, read_views, solve_views};
 use crate::next_view::{CANDIDATE_RESOLUTION, candidate_scenes, rank_views};
 use crate::scene::Object;
-use crate::solver::{Policy, Regularization};
+use crate::solver::{Policy, PriorMean, Regularization};
 use anyhow::Context;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -33,12 +33,15 @@ pub struct SuggestArgs {
     /// Regularisation, as for `reconstruct`.
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
+    /// Where the prior is centred: database, fitted:M or fitted (as `reconstruct` reads it).
+    #[arg(long, default_value = "database")]
+    pub prior_mean: PriorMean,
 }
 
 pub fn run(args: &SuggestArgs) -> anyhow::Result<()> {
     let painted = read_views(&args.views, Policy::Mean)?;
     let basis = load_basis(&args.basis)?;
-    let solver = solve_views(basis, args.lambda, None, &painted);
+    let solver = solve_views(basis, args.lambda, args.prior_mean, None, &painted);
     let base = painted
         .scenes
         .last()

@@ -15,6 +15,11 @@ use crate::worker::{Command, ViewId};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Duration;
+
+/// How long an export waits for the worker to catch up with the paint (a fit of the prior's
+/// mean takes well under a second) before it writes the BRDF it has.
+const EXPORT_SETTLE_TIMEOUT: Duration = Duration::from_secs(30);
 
 impl Document {
     /// The session as it stands: every view, `brush` (the tool the artist holds) and the
@@ -221,7 +226,8 @@ impl Document {
         Ok(())
     }
 
-    /// The current reconstruction (basis and coefficients) for an export to `path`; the
+    /// The current reconstruction (basis and coefficients) for an export to `path`, used
+    /// as it is should the worker not settle within [`EXPORT_SETTLE_TIMEOUT`]; the
     /// full table is made on the export's thread.
     fn current_reconstruction(&self, path: &Path) -> crate::Result<Reconstruction> {
         let Some(basis) = self.snapshot.basis.clone() else {
@@ -248,10 +254,20 @@ impl Document {
             ));
         }
         let reconstruction = self.current_reconstruction(path)?;
+        // The worker may still be fitting the prior's mean to the last strokes: the file
+        // holds the BRDF once it caught up, as `burnish reconstruct` computes it.
+        let settled = self.worker.sync_later();
         let target = path.to_path_buf();
         let label = format!("exporting {}…", file_name(path));
         self.file_jobs
             .spawn(label, JobKind::Export, target.clone(), move || {
+                let reconstruction = match settled.wait(EXPORT_SETTLE_TIMEOUT) {
+                    Some(snapshot) => match &snapshot.basis {
+                        Some(basis) => Reconstruction::new(basis.clone(), &snapshot.coefficients),
+                        None => reconstruction,
+                    },
+                    None => reconstruction,
+                };
                 let table = reconstruction.materialize();
                 let message = match format {
                     ExportKind::Merl => {

@@ -1,8 +1,10 @@
 //! From painted samples to a full table: the sparse table, the incremental ridge solver on
 //! cached basis rows, and the lazy reconstruction.
 
+pub mod analytic_fit;
 pub mod bands;
 mod condition;
+pub mod fitted_mean;
 pub mod posterior;
 pub mod prior;
 pub mod reconstruction;
@@ -10,7 +12,10 @@ pub mod ridge;
 pub mod sparse;
 
 pub use bands::{BANDS, BandWeights, DEFAULT_KNOTS, KnotSpacing, pair_bands, pair_bands_spaced};
-pub use prior::{Censoring, DEFAULT_ALPHA, EVIDENCE_BAND_CORRELATIONS, PriorModel, Regularization};
+pub use fitted_mean::{FittedMean, MeanFitRequest};
+pub use prior::{
+    Censoring, DEFAULT_ALPHA, EVIDENCE_BAND_CORRELATIONS, PriorMean, PriorModel, Regularization,
+};
 pub use reconstruction::Reconstruction;
 pub use ridge::{Posterior, Solution, Solver};
 pub use sparse::{BinChange, Bound, Bounds, EXACT, Policy, SampleKey, SampleRejected, SparseTable};

@@ -42,6 +42,12 @@
 //! (0.459 → 0.477); offered 0.5 and 0.7 beside 0.9 with the same margin, it never took
 //! them on the folds, so only tighter couplings are candidates.
 //!
+//! **The prior's mean** is the database's mean material (all coefficients 0), a starting
+//! material's projection (`Solver::set_prior_mean`), or, under [`PriorMean::Fitted`], the
+//! projection of Lambert + GGX fitted to the painted bins ([`super::fitted_mean`]): a fit
+//! too slow for the live loop, so it is installed apart (`Solver::install_fitted_mean`) and
+//! taken only when the evidence favours it by the model's margin.
+//!
 //! **Updates.** N = Σ_p w_p ψ_pψ_pᵀ and r_c = Σ_p w_p ψ_p y_pc are kept up to date one bin change
 //! at a time (O(K²) when a bin appears, empties or its weight changes, O(K) when only its value
 //! does), in f64, with an exact rebuild every [`Solver::REBUILD_INTERVAL`] changes and whenever
@@ -54,9 +60,10 @@
 
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
+use super::fitted_mean::{FittedMean, MeanFitRequest, SharedProjector};
 pub use super::posterior::Posterior;
-use super::prior::EVIDENCE_BAND_CORRELATIONS;
-pub use super::prior::{Censoring, DEFAULT_ALPHA, PriorModel, Regularization};
+pub use super::prior::{Censoring, DEFAULT_ALPHA, PriorMean, PriorModel, Regularization};
+use super::prior::{EVIDENCE_BAND_CORRELATIONS, EVIDENCE_MARGIN_NATS};
 use super::sparse::{BinChange, Bound, Bounds, EXACT};
 use crate::basis::{Basis, map_value};
 use crate::table::{PairIndex, cos_theta_centre, pair_directions};
@@ -69,10 +76,6 @@ use std::sync::Arc;
 /// `Solver::pin_narrow_bounds`): a tenth of a log unit, far below the noise √α.
 const NARROW_BOUND_WIDTH: f64 = 0.1;
 
-/// How much more likely (in nats of marginal likelihood) the painted bins must be under a
-/// stronger band correlation than under the configured one for the solve to take it: about
-/// 20 to 1, "strong" on Jeffreys' scale, so that a near tie keeps the calibrated prior.
-const EVIDENCE_MARGIN_NATS: f64 = 3.0;
 /// The knots that must each hold [`EVIDENCE_MIN_KNOT_SHARE`] of the painted bins' weight
 /// before the evidence may choose ρ (see `Solver::effective_model`).
 const EVIDENCE_MIN_KNOTS: usize = 3;
@@ -111,6 +114,8 @@ struct Observed {
     row: Box<[f64]>,
     band: BandWeights,
     y: [f64; 3],
+    /// The bin's value (after `Solver::pin_narrow_bounds`), for the fit of the prior's mean.
+    rho: [f64; 3],
     /// Luminance × cos θ_l cos θ_v of the bin's value: its brightness L_p.
     brightness: f64,
     /// Multiplicity × brightness weight.
@@ -128,6 +133,11 @@ pub struct Solver {
     model: PriorModel,
     /// The prior's mean coefficients (a starting material's projection, K rows), or zero.
     prior_mean: Option<Vec<[f64; 3]>>,
+    /// The last fitted mean installed ([`PriorMean::Fitted`]), used when no start is set.
+    fitted: Option<InstalledMean>,
+    /// Counts the changes of the observed bins, so that a fit knows which bins it saw.
+    generation: u64,
+    projector: SharedProjector,
     observed: BTreeMap<PairIndex, Observed>,
     /// Observed pairs with at least one bounded channel, solved for at [`Solver::solve`].
     censored: BTreeSet<PairIndex>,
@@ -140,6 +150,15 @@ pub struct Solver {
     brightness_sum: f64,
     brightness_reference: f64,
     changes_since_rebuild: usize,
+}
+
+/// A fitted mean and whether the evidence took it.
+#[derive(Clone, Debug)]
+struct InstalledMean {
+    generation: u64,
+    /// `None` when the bins are not clearly more likely under it than under the database's
+    /// mean.
+    coefficients: Option<Vec<[f64; 3]>>,
 }
 
 /// Rec. 709 luminance × cos θ_l cos θ_v of a bin value: what it adds to a render.
@@ -175,6 +194,9 @@ impl Solver {
             regularization,
             model,
             prior_mean: None,
+            fitted: None,
+            generation: 0,
+            projector: SharedProjector::default(),
             observed: BTreeMap::new(),
             censored: BTreeSet::new(),
             normal: vec![0.0; d * d],
@@ -220,9 +242,110 @@ impl Solver {
         });
     }
 
-    /// The prior's mean coefficients, if set.
+    /// Where the prior is centred without a start ([`PriorModel::mean`]); a fitted mean
+    /// installed for another rule is dropped.
+    pub fn set_mean_kind(&mut self, mean: PriorMean) {
+        if self.model.mean != mean {
+            self.model.mean = mean;
+            self.fitted = None;
+        }
+    }
+
+    /// The prior's mean coefficients a starting material set, if any.
     pub fn prior_mean(&self) -> Option<&[[f64; 3]]> {
         self.prior_mean.as_deref()
+    }
+
+    /// The mean the next solve centres the prior on: a starting material's, else the fitted
+    /// mean when the model asks for one and the evidence took it; `None` is the database's.
+    pub fn effective_prior_mean(&self) -> Option<&[[f64; 3]]> {
+        if self.prior_mean.is_some() {
+            return self.prior_mean.as_deref();
+        }
+        match self.model.mean {
+            PriorMean::Database => None,
+            PriorMean::Fitted { .. } => self.fitted.as_ref()?.coefficients.as_deref(),
+        }
+    }
+
+    /// What a fit of the prior's mean to the bins painted now needs, or `None` when the mean
+    /// is current: the model centres on the database, a start is set, nothing is painted or
+    /// the installed fit saw these very bins.
+    pub fn mean_fit_request(&self) -> Option<MeanFitRequest> {
+        if self.prior_mean_is_current() {
+            return None;
+        }
+        Some(MeanFitRequest {
+            generation: self.generation,
+            bins: self
+                .observed
+                .iter()
+                .map(|(&pair, obs)| (pair, obs.rho, obs.bounds))
+                .collect(),
+            basis: self.basis.clone(),
+            projector: self.projector.clone(),
+        })
+    }
+
+    /// Installs a fitted mean, even one fitted to earlier bins (the best guess until the
+    /// current fit arrives), and decides by the evidence whether the prior centres on it.
+    /// Returns whether the mean the solve uses changed.
+    pub fn install_fitted_mean(&mut self, fitted: FittedMean) -> bool {
+        let newer = self
+            .fitted
+            .as_ref()
+            .is_none_or(|f| f.generation < fitted.generation);
+        if self.observed.is_empty()
+            || !newer
+            || fitted.generation > self.generation
+            || !Arc::ptr_eq(&fitted.basis, &self.basis)
+        {
+            return false;
+        }
+        let before = self.effective_prior_mean().map(<[_]>::to_vec);
+        let margin = match self.model.mean {
+            PriorMean::Fitted { margin_nats } => margin_nats,
+            PriorMean::Database => f64::INFINITY,
+        };
+        let k = self.basis.components();
+        let mut coefficients = fitted.coefficients;
+        coefficients.resize(k, [0.0; 3]);
+        coefficients
+            .iter_mut()
+            .flatten()
+            .for_each(|v| *v = if v.is_finite() { *v } else { 0.0 });
+        let accepted = margin == f64::NEG_INFINITY || {
+            let alpha = self.evidence_alpha();
+            let rho = [self.model.band_correlation];
+            let with = self.evidence(alpha, Some(&coefficients), rho);
+            let without = self.evidence(alpha, None, rho);
+            match (with.first(), without.first()) {
+                (Some(&(_, with)), Some(&(_, without))) => with - without > margin,
+                _ => false,
+            }
+        };
+        self.fitted = Some(InstalledMean {
+            generation: fitted.generation,
+            coefficients: accepted.then_some(coefficients),
+        });
+        self.effective_prior_mean().map(<[_]>::to_vec) != before
+    }
+
+    /// Fits, projects and installs the prior's mean for the bins painted now, if it is not
+    /// current (see [`Self::mean_fit_request`]): what a one-shot solve calls before solving.
+    pub fn refit_prior_mean(&mut self) {
+        if let Some(request) = self.mean_fit_request() {
+            let fitted = request.run();
+            self.install_fitted_mean(fitted);
+        }
+    }
+
+    /// Whether the prior's mean belongs to the bins painted now (no fit is due); O(1).
+    pub fn prior_mean_is_current(&self) -> bool {
+        self.model.mean == PriorMean::Database
+            || self.prior_mean.is_some()
+            || self.observed.is_empty()
+            || self.fitted.as_ref().map(|f| f.generation) == Some(self.generation)
     }
 
     pub fn observed_bins(&self) -> usize {
@@ -271,6 +394,9 @@ impl Solver {
             }
             None => (None, EXACT),
         };
+        if after.is_some() || self.observed.contains_key(&pair) {
+            self.generation += 1;
+        }
         match after {
             Some(rho) => {
                 let y = self.centred(pair, rho);
@@ -301,6 +427,7 @@ impl Solver {
                         self.accumulate(&obs, 1.0, d);
                     }
                     obs.y = y;
+                    obs.rho = rho;
                     obs.brightness = brightness;
                     obs.bounds = bounds;
                     self.observed.insert(pair, obs);
@@ -310,6 +437,7 @@ impl Solver {
                         row,
                         band: self.model.band_weights(pair),
                         y,
+                        rho,
                         brightness,
                         weight,
                         bounds,
@@ -339,6 +467,10 @@ impl Solver {
             || self.brightness_drifted()
         {
             self.rebuild();
+        }
+        if self.observed.is_empty() {
+            // An empty painting is the database's mean material (or the start), as ever.
+            self.fitted = None;
         }
     }
 
@@ -513,12 +645,38 @@ impl Solver {
     /// −2 log p = Σ_c (y_cᵀWy_c − r_cᵀ M⁻¹ r_c)/α + 3 (log det M − log det P₀) + const, with
     /// M = N + αP₀ and y, r measured from the prior's mean. Censored bins count at their bound.
     pub fn band_correlation_evidence(&self, alpha: f64) -> Vec<(f64, f64)> {
+        let configured = self.model.band_correlation;
+        let candidates = std::iter::once(configured).chain(
+            EVIDENCE_BAND_CORRELATIONS
+                .into_iter()
+                .filter(move |&rho| rho > configured),
+        );
+        self.evidence(alpha, self.effective_prior_mean(), candidates)
+    }
+
+    /// α for the evidence: the prior's, or the calibrated one where the solve fits α itself
+    /// or uses plain ridge.
+    fn evidence_alpha(&self) -> f64 {
+        match self.regularization {
+            Regularization::Prior { alpha } => alpha,
+            _ => DEFAULT_ALPHA,
+        }
+    }
+
+    /// (ρ, log marginal likelihood) of the painted bins for each of `correlations`, with the
+    /// prior centred on `mean` (K rows; `None`: the database's mean).
+    fn evidence(
+        &self,
+        alpha: f64,
+        mean: Option<&[[f64; 3]]>,
+        correlations: impl IntoIterator<Item = f64>,
+    ) -> Vec<(f64, f64)> {
         let d = self.dimension();
         let k = self.basis.components();
         let n = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
         let mut r = Mat::<f64>::from_fn(d, 3, |i, c| self.rhs[i][c]);
         let mut yty = self.yty;
-        if let Some(mean) = &self.prior_mean {
+        if let Some(mean) = mean {
             // y − Ψx₀: r − Nx₀ and yᵀWy − 2x₀ᵀr + x₀ᵀNx₀.
             let x0 = Mat::<f64>::from_fn(d, 3, |i, c| mean[i % k][c]);
             let nx0 = &n * &x0;
@@ -535,14 +693,8 @@ impl Solver {
         let log_det = |l: faer::MatRef<'_, f64>| -> f64 {
             (0..l.nrows()).map(|i| 2.0 * l[(i, i)].ln()).sum()
         };
-        let configured = self.model.band_correlation;
-        let candidates = std::iter::once(configured).chain(
-            EVIDENCE_BAND_CORRELATIONS
-                .into_iter()
-                .filter(move |&rho| rho > configured),
-        );
         let mut scored = Vec::new();
-        for rho in candidates {
+        for rho in correlations {
             let model = PriorModel {
                 band_correlation: rho,
                 ..self.model
@@ -586,7 +738,7 @@ impl Solver {
         let mut m = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
         m += &prior;
         let mut rhs = Mat::<f64>::from_fn(d, 3, |i, c| self.rhs[i][c]);
-        if let Some(mean) = &self.prior_mean {
+        if let Some(mean) = self.effective_prior_mean() {
             // A prior N(x₀, ·) on every set adds (αP₀)(1 ⊗ x₀) to the right-hand side.
             let x0 = Mat::<f64>::from_fn(d, 3, |i, c| mean[i % k][c]);
             rhs += &prior * &x0;

@@ -13,27 +13,38 @@
 //! view, moving its light or swapping the basis re-derives the samples without asking the
 //! canvas.
 //!
+//! The prior's mean, when the model fits it to the paint ([`crate::solver::fitted_mean`]),
+//! is fitted on a third thread, the fit thread, from a copy of the bins, so a stroke never
+//! waits for it: each snapshot uses the newest fit installed, and a new fit starts whenever
+//! the bins changed since the last one began. [`Command::Sync`] and the analysis requests
+//! are answered once the fit belongs to the bins painted now, so what they see is what
+//! `burnish reconstruct` computes from the same paint.
+//!
 //! Work too slow for the solve loop (a prediction of the BRDF for a view, the table's
 //! uncertainty, the ranking of candidate next views) runs on a second thread, the analysis
 //! thread, from a copy of the worker's state when it was asked; its answers come back as
 //! [`Analysis`] values on a third channel.
 
 use crate::basis::Basis;
-use crate::bench::oracle::OracleProjector;
+use crate::basis::OracleProjector;
 use crate::image_io::RgbImage;
 use crate::next_view::{RankedView, candidate_scenes, rank_views};
 use crate::paint::PixelChange;
 use crate::scene::{GBuffer, Object, PaintRange, Scene, render_table, sample_pixel_in};
 use crate::solver::{
-    BinChange, Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable,
+    BinChange, FittedMean, MeanFitRequest, Policy, PriorMean, PriorModel, Reconstruction,
+    Regularization, SampleKey, Solver, SparseTable,
 };
 use crate::table::{PairIndex, SymTable};
 use arc_swap::ArcSwap;
-use crossbeam_channel::{Receiver, Sender, TryRecvError, unbounded};
+use crossbeam_channel::{Receiver, Sender, TryRecvError, select, unbounded};
 use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// How long paint must be still before the worker fits the prior's mean to it.
+const FIT_SETTLE: Duration = Duration::from_millis(150);
 
 /// A view's identity, shared by the canvas, the worker and the sparse table's sample keys.
 pub type ViewId = u32;
@@ -76,7 +87,11 @@ pub enum Command {
     /// The material the painting starts from (its projection onto each installed basis is
     /// the prior mean), or `None` for the database's mean material.
     SetStartMaterial(Option<Arc<SymTable>>),
-    /// Answers with the version of the snapshot that includes every command sent before it.
+    /// Where the prior is centred without a starting material (the database's mean, or
+    /// Lambert + GGX fitted to the paint).
+    SetPriorMean(PriorMean),
+    /// Answers with the version of the snapshot that includes every command sent before it,
+    /// and the prior's mean fitted to them.
     Sync(Sender<u64>),
     /// Render the current BRDF for a view's geometry, as a perfect painter would paint it
     /// (answered by [`Analysis::Prediction`]).
@@ -143,6 +158,9 @@ pub struct Snapshot {
     /// The prior's mean coefficients when a starting material sets them (its projection
     /// onto the basis); `None`: the database's mean material.
     pub prior_mean: Option<Arc<Vec<[f64; 3]>>>,
+    /// Whether the prior's mean is still being fitted to the paint: a later snapshot will
+    /// follow without any input (the UI keeps looking for it).
+    pub fitting_mean: bool,
 }
 
 /// Figures for the status bar.
@@ -185,9 +203,11 @@ impl Worker {
             .name("burnish-worker".into())
             .spawn(move || {
                 let jobs = spawn_analysis(analyses_out);
+                let (fitted_out, fitted) = unbounded();
                 let mut state = WorkerState::new(policy, regularization, published, updates_out);
                 state.jobs = Some(jobs);
-                state.run(inbox);
+                state.fits = Some(spawn_fitter(fitted_out));
+                state.run(inbox, fitted);
             })
             .expect("spawning the worker thread");
         Self {
@@ -235,10 +255,33 @@ impl Worker {
     /// includes them, or `None` when `timeout` passes first. For tests, benchmarks and
     /// saving; the UI thread never calls it while painting.
     pub fn sync(&self, timeout: Duration) -> Option<Arc<Snapshot>> {
+        self.sync_later().wait(timeout)
+    }
+
+    /// Sends a sync without waiting for it; never blocks.
+    pub fn sync_later(&self) -> PendingSync {
         let (tx, rx) = crossbeam_channel::bounded(1);
         self.send(Command::Sync(tx));
-        rx.recv_timeout(timeout).ok()?;
-        Some(self.snapshot())
+        PendingSync {
+            reply: rx,
+            snapshot: self.snapshot.clone(),
+        }
+    }
+}
+
+/// A [`Command::Sync`] under way, to wait for on another thread (an export must write what
+/// `burnish reconstruct` would, so it waits for the prior's mean to catch up with the paint).
+pub struct PendingSync {
+    reply: Receiver<u64>,
+    snapshot: Arc<ArcSwap<Snapshot>>,
+}
+
+impl PendingSync {
+    /// The snapshot that includes every command sent before the sync, or `None` when
+    /// `timeout` passes first (or the worker is gone).
+    pub fn wait(self, timeout: Duration) -> Option<Arc<Snapshot>> {
+        self.reply.recv_timeout(timeout).ok()?;
+        Some(self.snapshot.load_full())
     }
 }
 
@@ -276,8 +319,17 @@ struct WorkerState {
     last_coefficients: Arc<Vec<[f64; 3]>>,
     /// Kept as a table so that a later basis gets its own projection.
     start_material: Option<Arc<SymTable>>,
+    prior_mean: PriorMean,
     /// The analysis thread's inbox.
     jobs: Option<Sender<Job>>,
+    /// The fit thread's inbox, and whether a fit is under way there.
+    fits: Option<Sender<MeanFitRequest>>,
+    fit_in_flight: bool,
+    /// When the last batch changed the bins.
+    last_bin_change: Instant,
+    /// Syncs and analysis requests waiting for the prior's mean to catch up with the bins.
+    waiting_syncs: Vec<Sender<u64>>,
+    waiting_requests: Vec<Command>,
 }
 
 impl WorkerState {
@@ -299,87 +351,188 @@ impl WorkerState {
             last_stats: SolveStats::default(),
             last_coefficients: Arc::new(Vec::new()),
             start_material: None,
+            prior_mean: PriorModel::CALIBRATED.mean,
             jobs: None,
+            fits: None,
+            fit_in_flight: false,
+            last_bin_change: Instant::now(),
+            waiting_syncs: Vec::new(),
+            waiting_requests: Vec::new(),
         }
     }
 
-    fn run(&mut self, inbox: Receiver<Command>) {
-        while let Ok(first) = inbox.recv() {
-            let started = Instant::now();
-            let mut batch = vec![first];
-            loop {
-                match inbox.try_recv() {
-                    Ok(command) => batch.push(command),
-                    Err(TryRecvError::Empty) => break,
-                    Err(TryRecvError::Disconnected) => break,
-                }
-            }
-            let batch_commands = batch.len();
-            let mut changes = Vec::new();
-            let mut syncs = Vec::new();
-            let mut requests = Vec::new();
-            let mut oldest_input: Option<Instant> = None;
-            let mut resolve = false;
-            // Changes before a basis install are already in the new solver's first build.
-            let mut solver_start = 0;
-            for command in batch {
-                match command {
-                    Command::Pixels {
-                        view,
-                        edits,
-                        input_time,
-                    } => {
-                        oldest_input = Some(oldest_input.map_or(input_time, |t| t.min(input_time)));
-                        self.apply_edits(view, &edits, &mut changes);
-                    }
-                    Command::Sync(reply) => syncs.push(reply),
-                    request @ (Command::Predict { .. }
-                    | Command::EstimateUncertainty
-                    | Command::RankViews { .. }) => requests.push(request),
-                    Command::SetBasis(basis) => {
-                        self.install_basis(basis);
-                        solver_start = changes.len();
-                        resolve = true;
-                    }
-                    Command::SetRegularization(regularization) => {
-                        self.regularization = regularization;
-                        if let Some(solver) = &mut self.solver {
-                            solver.set_regularization(regularization);
+    fn run(&mut self, inbox: Receiver<Command>, mut fitted: Receiver<FittedMean>) {
+        loop {
+            let fit_timer = match self.fit_due_in() {
+                Some(wait) => crossbeam_channel::after(wait),
+                None => crossbeam_channel::never(),
+            };
+            select! {
+                recv(inbox) -> first => match first {
+                    Ok(first) => self.run_batch(first, &inbox),
+                    Err(_) => return,
+                },
+                recv(fitted) -> mean => {
+                    self.fit_in_flight = false;
+                    match mean {
+                        Ok(mean) => self.take_fitted_mean(mean),
+                        // The fit thread is gone (it panicked): fit on this thread from now on.
+                        Err(_) => {
+                            self.fits = None;
+                            fitted = crossbeam_channel::never();
                         }
-                        resolve = true;
                     }
-                    Command::SetStartMaterial(material) => {
-                        self.start_material = material;
-                        if let Some(solver) = &mut self.solver {
-                            let basis = solver.basis().clone();
-                            let mean = self
-                                .start_material
-                                .as_deref()
-                                .map(|t| OracleProjector::new(basis).project(t));
-                            solver.set_prior_mean(mean);
-                        }
-                        resolve = true;
-                    }
-                    other => self.apply_view_command(other, &mut changes),
+                },
+                recv(fit_timer) -> _ => {},
+            }
+            self.request_mean_fit();
+            if !self.fit_in_flight {
+                // The mean belongs to the bins now: what waited for it may go.
+                for request in std::mem::take(&mut self.waiting_requests) {
+                    self.dispatch(request);
                 }
-            }
-            if !changes.is_empty() || resolve || self.version == 0 {
-                self.publish(
-                    &changes,
-                    solver_start,
-                    started,
-                    batch_commands,
-                    oldest_input,
-                );
-            }
-            // After the batch's solve: the answers include everything sent before the request.
-            for request in requests {
-                self.dispatch(request);
-            }
-            for reply in syncs {
-                let _ = reply.send(self.version);
+                for reply in std::mem::take(&mut self.waiting_syncs) {
+                    let _ = reply.send(self.version);
+                }
             }
         }
+    }
+
+    /// Whether the prior's mean is not yet the fit of the bins painted now.
+    fn fitting_mean(&self) -> bool {
+        self.fit_in_flight
+            || self
+                .solver
+                .as_ref()
+                .is_some_and(|s| !s.prior_mean_is_current())
+    }
+
+    /// How long until a fit of the prior's mean is due: the bins changed since the last fit
+    /// began, none is under way, and paint has been still for [`FIT_SETTLE`] (a fit during a
+    /// stroke would be stale when done and would take the cores the preview draws with).
+    /// `None` when no fit is due.
+    fn fit_due_in(&self) -> Option<Duration> {
+        if self.fit_in_flight || self.solver.as_ref()?.prior_mean_is_current() {
+            return None;
+        }
+        Some(FIT_SETTLE.saturating_sub(self.last_bin_change.elapsed()))
+    }
+
+    /// Starts a fit of the prior's mean when one is due, or at once when a sync or an
+    /// analysis request waits for it; without a fit thread (it panicked), fits on this one.
+    fn request_mean_fit(&mut self) {
+        let waited_for = !self.waiting_syncs.is_empty() || !self.waiting_requests.is_empty();
+        if self
+            .fit_due_in()
+            .is_none_or(|wait| !wait.is_zero() && !waited_for)
+        {
+            return;
+        }
+        let Some(request) = self.solver.as_ref().and_then(Solver::mean_fit_request) else {
+            return;
+        };
+        match &self.fits {
+            Some(fits) if fits.send(request.clone()).is_ok() => self.fit_in_flight = true,
+            _ => self.take_fitted_mean(request.run()),
+        }
+    }
+
+    /// Installs a fitted mean and, when the solve's mean changed, solves and publishes again.
+    fn take_fitted_mean(&mut self, mean: FittedMean) {
+        let started = Instant::now();
+        let changed = self
+            .solver
+            .as_mut()
+            .is_some_and(|solver| solver.install_fitted_mean(mean));
+        // Publish also when only the "still fitting" flag changes, so the UI stops waiting.
+        self.request_mean_fit();
+        if changed || self.published.load().fitting_mean != self.fitting_mean() {
+            self.publish(&[], 0, started, 0, None);
+        }
+    }
+
+    fn run_batch(&mut self, first: Command, inbox: &Receiver<Command>) {
+        let started = Instant::now();
+        let mut batch = vec![first];
+        loop {
+            match inbox.try_recv() {
+                Ok(command) => batch.push(command),
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => break,
+            }
+        }
+        let batch_commands = batch.len();
+        let mut changes = Vec::new();
+        let mut syncs = Vec::new();
+        let mut requests = Vec::new();
+        let mut oldest_input: Option<Instant> = None;
+        let mut resolve = false;
+        // Changes before a basis install are already in the new solver's first build.
+        let mut solver_start = 0;
+        for command in batch {
+            match command {
+                Command::Pixels {
+                    view,
+                    edits,
+                    input_time,
+                } => {
+                    oldest_input = Some(oldest_input.map_or(input_time, |t| t.min(input_time)));
+                    self.apply_edits(view, &edits, &mut changes);
+                }
+                Command::Sync(reply) => syncs.push(reply),
+                request @ (Command::Predict { .. }
+                | Command::EstimateUncertainty
+                | Command::RankViews { .. }) => requests.push(request),
+                Command::SetBasis(basis) => {
+                    self.install_basis(basis);
+                    solver_start = changes.len();
+                    resolve = true;
+                }
+                Command::SetRegularization(regularization) => {
+                    self.regularization = regularization;
+                    if let Some(solver) = &mut self.solver {
+                        solver.set_regularization(regularization);
+                    }
+                    resolve = true;
+                }
+                Command::SetPriorMean(mean) => {
+                    self.prior_mean = mean;
+                    if let Some(solver) = &mut self.solver {
+                        solver.set_mean_kind(mean);
+                    }
+                    resolve = true;
+                }
+                Command::SetStartMaterial(material) => {
+                    self.start_material = material;
+                    if let Some(solver) = &mut self.solver {
+                        let basis = solver.basis().clone();
+                        let mean = self
+                            .start_material
+                            .as_deref()
+                            .map(|t| OracleProjector::new(basis).project(t));
+                        solver.set_prior_mean(mean);
+                    }
+                    resolve = true;
+                }
+                other => self.apply_view_command(other, &mut changes),
+            }
+        }
+        if !changes.is_empty() {
+            self.last_bin_change = Instant::now();
+        }
+        if !changes.is_empty() || resolve || self.version == 0 {
+            self.publish(
+                &changes,
+                solver_start,
+                started,
+                batch_commands,
+                oldest_input,
+            );
+        }
+        // Answered after the batch's solve, once the prior's mean caught up (see `run`):
+        // the answers include everything sent before the request.
+        self.waiting_requests.extend(requests);
+        self.waiting_syncs.extend(syncs);
     }
 
     fn apply_view_command(&mut self, command: Command, changes: &mut Vec<BinChange>) {
@@ -426,6 +579,7 @@ impl WorkerState {
             | Command::Sync(_)
             | Command::SetBasis(_)
             | Command::SetStartMaterial(_)
+            | Command::SetPriorMean(_)
             | Command::SetRegularization(_)
             | Command::Predict { .. }
             | Command::EstimateUncertainty
@@ -528,7 +682,11 @@ impl WorkerState {
     }
 
     fn install_basis(&mut self, basis: Arc<Basis>) {
-        let mut solver = Solver::new(basis.clone(), self.regularization);
+        let model = PriorModel {
+            mean: self.prior_mean,
+            ..PriorModel::CALIBRATED
+        };
+        let mut solver = Solver::with_model(basis.clone(), self.regularization, model);
         if let Some(material) = &self.start_material {
             solver.set_prior_mean(Some(OracleProjector::new(basis).project(material)));
         }
@@ -594,6 +752,7 @@ impl WorkerState {
                 .as_ref()
                 .and_then(|s| s.prior_mean())
                 .map(|m| Arc::new(m.to_vec())),
+            fitting_mean: self.fitting_mean(),
         }));
     }
 }
@@ -656,6 +815,23 @@ enum Job {
         painted: std::collections::BTreeSet<PairIndex>,
     },
     NoBasis(AnalysisKind),
+}
+
+/// Starts the fit thread; it ends when the returned sender (the worker's) is dropped. The
+/// worker keeps at most one request in it.
+fn spawn_fitter(out: Sender<FittedMean>) -> Sender<MeanFitRequest> {
+    let (requests, inbox) = unbounded::<MeanFitRequest>();
+    std::thread::Builder::new()
+        .name("burnish-fit".into())
+        .spawn(move || {
+            while let Ok(request) = inbox.recv() {
+                if out.send(request.run()).is_err() {
+                    return;
+                }
+            }
+        })
+        .expect("spawning the fit thread");
+    requests
 }
 
 /// Starts the analysis thread; it ends when the returned sender (the worker's) is dropped.

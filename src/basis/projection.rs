@@ -1,8 +1,8 @@
-//! The oracle: the full truth projected onto the basis, every bin observed. It is the best
-//! any sparse method could do with this basis, in the basis's own sense: least squares over
-//! all pairs in the log-mapped domain (cos weight inside the map, pair multiplicity as the
-//! weight, values clamped to the database's range), which is what the solver minimises over
-//! the painted bins.
+//! The projection of a full table onto the basis: least squares over all pairs in the
+//! log-mapped domain (cos weight inside the map, pair multiplicity as the weight, values
+//! clamped to the database's range), which is what the solver minimises over the painted
+//! bins. Of the truth, it is the bench's oracle: the best any sparse method could do with
+//! this basis. Of a starting material or an analytic fit, it is the solver's prior mean.
 
 use crate::basis::Basis;
 use crate::table::{PAIRS, PairIndex, SymTable, pair_multiplicity};
@@ -15,6 +15,7 @@ use std::sync::Arc;
 const BLOCK: usize = 4096;
 
 /// Projects tables onto one basis; the Gram matrix is computed once.
+#[derive(Debug)]
 pub struct OracleProjector {
     basis: Arc<Basis>,
     /// Cholesky-factorable Gram matrix Σ_p w_p u_p u_pᵀ (≈ I by construction, kept exact

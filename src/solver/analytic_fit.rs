@@ -3,10 +3,12 @@
 //!
 //! The residual of a bin is ln((ρ̂c + ε)/(ρc + ε)) per channel, weighted by the bin's pair
 //! multiplicity: the log-mapped domain and weights the basis and its solver use, so both
-//! methods minimise the same kind of error. Bounds come from the parametrisation (logistic
+//! methods minimise the same kind of error. A channel that is only a bound (clipped 8-bit
+//! paint) costs nothing on the side the bound allows (a hinge). Bounds come from the parametrisation (logistic
 //! albedo and F0, logistic log-roughness), so the optimiser itself is unconstrained. Several
 //! starts run a few iterations each; the best ones are run to convergence.
 
+use super::sparse::{Bound, Bounds, EXACT};
 use crate::basis::{MAP_EPSILON, cos_weight};
 use crate::materials::Brdf;
 use crate::materials::models::{Distribution, Fresnel, Lambert, Microfacet};
@@ -17,13 +19,17 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
-/// Lambertian albedo plus an anisotropic GGX lobe with Schlick Fresnel.
+/// Lambertian albedo plus an anisotropic GGX lobe with Schlick Fresnel, weighted.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LambertGgx {
     /// Diffuse albedo per channel (ρ_d = albedo/π).
     pub albedo: [f64; 3],
     /// Specular reflectance at normal incidence per channel.
     pub f0: [f64; 3],
+    /// The lobe's weight in [0, 1] (1: Schlick's Fresnel alone). Schlick's grazing rise
+    /// reaches 1 whatever F0, so without it a fit to a dark diffuse material keeps a lobe
+    /// that no painted bin forbids and that outshines the material at grazing angles.
+    pub specular: f64,
     /// GGX roughness along the rotated tangent.
     pub alpha_x: f64,
     /// GGX roughness along the rotated bitangent.
@@ -44,7 +50,7 @@ impl LambertGgx {
                 alpha_y: self.alpha_y,
                 rotation: self.rotation,
                 fresnel: Fresnel::Schlick { f0: self.f0 },
-                tint: [1.0; 3],
+                tint: [self.specular; 3],
             },
         )
     }
@@ -64,8 +70,9 @@ impl Brdf for LambertGgx {
 /// Roughness bounds: below 0.01 a lobe is narrower than the 2° bins can show.
 const ALPHA_MIN: f64 = 0.01;
 const ALPHA_MAX: f64 = 1.5;
-/// Parameters: three albedo logits, three F0 logits, two log-roughness logits, rotation.
-const P: usize = 9;
+/// Parameters: three albedo logits, three F0 logits, two log-roughness logits, rotation,
+/// the specular weight's logit.
+const P: usize = 10;
 
 fn logistic(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
@@ -93,7 +100,9 @@ fn model_of(theta: &[f64; P]) -> LambertGgx {
         f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
         alpha_x: alpha_of(theta[6]),
         alpha_y: alpha_of(theta[7]),
-        rotation: theta[8],
+        // A lobe turned by π is the same lobe: the reported angle stays in [0, π).
+        rotation: theta[8].rem_euclid(std::f64::consts::PI),
+        specular: logistic(theta[9]),
     }
 }
 
@@ -106,6 +115,7 @@ fn params_of(model: &LambertGgx) -> [f64; P] {
     theta[6] = alpha_param(model.alpha_x);
     theta[7] = alpha_param(model.alpha_y);
     theta[8] = model.rotation;
+    theta[9] = logit(model.specular);
     theta
 }
 
@@ -118,6 +128,7 @@ struct Observation {
     target: [f64; 3],
     c: f64,
     sqrt_weight: f64,
+    bounds: Bounds,
 }
 
 /// How hard the fit tries.
@@ -156,9 +167,18 @@ pub struct FitResult {
 /// Fits Lambert + anisotropic GGX to observed bins `(pair, ρ)` (as [`crate::solver::SparseTable::observed`]
 /// gives them). With no observation it returns a mid-grey diffuse model.
 pub fn fit_lambert_ggx(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> FitResult {
+    let bins: Vec<_> = bins.iter().map(|&(pair, rho)| (pair, rho, EXACT)).collect();
+    fit_lambert_ggx_bounded(&bins, options)
+}
+
+/// [`fit_lambert_ggx`] on bins whose channels may be bounds (as the solver holds them).
+pub fn fit_lambert_ggx_bounded(
+    bins: &[(PairIndex, [f64; 3], Bounds)],
+    options: &FitOptions,
+) -> FitResult {
     let observations: Vec<Observation> = bins
         .iter()
-        .map(|&(pair, rho)| {
+        .map(|&(pair, rho, bounds)| {
             let (lo, hi) = pair_directions(pair);
             let c = cos_weight(pair);
             Observation {
@@ -167,6 +187,7 @@ pub fn fit_lambert_ggx(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> 
                 target: rho.map(|r| (r.max(0.0) * c + MAP_EPSILON).ln()),
                 c,
                 sqrt_weight: pair_multiplicity(pair).sqrt(),
+                bounds,
             }
         })
         .collect();
@@ -209,11 +230,11 @@ pub fn fit_lambert_ggx(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> 
 
 /// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,
 /// four isotropic roughnesses and anisotropic ones at four orientations.
-fn starting_points(bins: &[(PairIndex, [f64; 3])]) -> Vec<[f64; P]> {
+fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
     let albedo: [f64; 3] = std::array::from_fn(|c| {
         let mut v: Vec<f64> = bins
             .iter()
-            .map(|(_, rho)| rho[c] * std::f64::consts::PI)
+            .map(|(_, rho, _)| rho[c] * std::f64::consts::PI)
             .collect();
         if v.is_empty() {
             return 0.5;
@@ -236,8 +257,20 @@ fn starting_points(bins: &[(PairIndex, [f64; 3])]) -> Vec<[f64; P]> {
                 alpha_x: alpha,
                 alpha_y: alpha,
                 rotation: 0.0,
+                specular: 0.9,
             }));
         }
+    }
+    // Nearly diffuse: a faint lobe, which the scouts could not reach from a full one.
+    for alpha in [0.1, 0.4] {
+        starts.push(params_of(&LambertGgx {
+            albedo: albedo.map(|a| a.max(0.01)),
+            f0: [0.04; 3],
+            alpha_x: alpha,
+            alpha_y: alpha,
+            rotation: 0.0,
+            specular: 0.01,
+        }));
     }
     for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
         starts.push(params_of(&LambertGgx {
@@ -246,6 +279,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3])]) -> Vec<[f64; P]> {
             alpha_x: 0.05,
             alpha_y: 0.3,
             rotation,
+            specular: 0.9,
         }));
     }
     starts
@@ -254,11 +288,20 @@ fn starting_points(bins: &[(PairIndex, [f64; 3])]) -> Vec<[f64; P]> {
 /// Bins per deterministic partial sum.
 const CHUNK: usize = 512;
 
-/// Weighted log residuals of one observation under `model`.
+/// Weighted log residuals of one observation under `model`; a bounded channel's is zero on
+/// the side its bound allows.
 #[inline]
 fn residuals(model: &LambertGgx, o: &Observation) -> [f64; 3] {
     let rho = model.eval(o.l, o.v);
-    std::array::from_fn(|ch| o.sqrt_weight * ((rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch]))
+    std::array::from_fn(|ch| {
+        let r = (rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch];
+        let r = match o.bounds[ch] {
+            Bound::Exact => r,
+            Bound::AtLeast => r.min(0.0),
+            Bound::AtMost => r.max(0.0),
+        };
+        o.sqrt_weight * r
+    })
 }
 
 /// ½‖r‖² at `theta`.
@@ -402,6 +445,7 @@ mod tests {
             alpha_x: 0.02,
             alpha_y: 1.2,
             rotation: 0.7,
+            specular: 0.3,
         };
         let back = model_of(&params_of(&model));
         for c in 0..3 {
@@ -409,7 +453,8 @@ mod tests {
             assert!((back.f0[c] - model.f0[c]).abs() < 1e-9);
         }
         assert!((back.alpha_x - 0.02).abs() < 1e-9 && (back.alpha_y - 1.2).abs() < 1e-9);
-        let extreme = model_of(&[1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0]);
+        assert!((back.specular - 0.3).abs() < 1e-9);
+        let extreme = model_of(&[1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3]);
         assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
         assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));
     }

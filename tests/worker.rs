@@ -83,6 +83,22 @@ fn batch_solution_with(
     solver.solve().coefficients
 }
 
+/// A dab that paints `pixels` of `view` for the first time.
+fn first_paint(view: u32, pixels: &[(u32, [f32; 3])]) -> Command {
+    Command::Pixels {
+        view,
+        edits: pixels
+            .iter()
+            .map(|&(pixel, colour)| PixelChange {
+                pixel,
+                before: None,
+                after: Some(colour),
+            })
+            .collect(),
+        input_time: Instant::now(),
+    }
+}
+
 fn close(a: &[[f64; 3]], b: &[[f64; 3]], tolerance: f64) -> bool {
     a.iter()
         .zip(b)
@@ -107,19 +123,7 @@ fn dabs_in_any_batching_give_the_batch_solution() {
     // Dabs of uneven size, sent without waiting: the worker drains them in batches.
     let mut sent = 0;
     for (i, chunk) in paint.chunks(97).enumerate() {
-        let edits = chunk
-            .iter()
-            .map(|&(pixel, colour)| PixelChange {
-                pixel,
-                before: None,
-                after: Some(colour),
-            })
-            .collect();
-        worker.send(Command::Pixels {
-            view: 0,
-            edits,
-            input_time: Instant::now(),
-        });
+        worker.send(first_paint(0, chunk));
         sent += 1;
         if i % 7 == 0 {
             std::thread::yield_now();
@@ -407,18 +411,7 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
     });
     worker.send(Command::SetBasis(basis.clone()));
     for chunk in paint.chunks(300) {
-        worker.send(Command::Pixels {
-            view: 0,
-            edits: chunk
-                .iter()
-                .map(|&(pixel, colour)| PixelChange {
-                    pixel,
-                    before: None,
-                    after: Some(colour),
-                })
-                .collect(),
-            input_time: Instant::now(),
-        });
+        worker.send(first_paint(0, chunk));
     }
     let snapshot = sync(&worker);
     assert!(!snapshot.fitting_mean, "a sync answers once the fit is in");

@@ -7,7 +7,7 @@
 mod common;
 
 use burnish::basis::{Basis, BasisCache, BasisSpec};
-use burnish::solver::{Reconstruction, Regularization, SampleKey, Solver, SparseTable};
+use burnish::solver::{Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{DIRECTIONS, DirIndex, PairIndex};
 use common::{check_basis, check_basis_spec, test_mode};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -87,7 +87,7 @@ fn engine(c: &mut Criterion) {
         });
 
         let solution = solver.solve();
-        let recon = Reconstruction::new(basis.clone(), &solution.coefficients);
+        let recon = solution.reconstruction(basis.clone());
         c.bench_function(&format!("full_table_from_coefficients_k{k}"), |b| {
             b.iter(|| black_box(recon.materialize()))
         });

@@ -1,9 +1,10 @@
 // Evaluates the reconstruction for every unordered direction pair (`reconstruct`), or for the
 // pairs the current view reads (`reconstruct_listed`, over shaders/view_pairs.wgsl's list),
 // exactly as solver::Reconstruction::eval_pair does: m = clamp(mean + Σ_k u_k x_k(θ_d),
-// lower − margin, upper + margin), ρ = max((e^m (reference + ε) − ε) / c, 0), with x(θ_d) the
-// blend of the two coefficient sets around the pair's θ_d (solver::bands). It runs once per
-// change of coefficients; the scene pass then reads the result like any table.
+// lower − margin, upper + margin) + o, ρ = max((e^m (reference + ε) − ε) / c, 0), with x(θ_d)
+// the blend of the two coefficient sets around the pair's θ_d (solver::bands) and o a fitted
+// reference's offsets (solver::fitted_mean; zero without one). It runs once per change of
+// coefficients; the scene pass then reads the result like any table.
 
 const MAP_EPSILON: f32 = 0.001;
 const PHI_BINS: u32 = 36u;
@@ -25,7 +26,8 @@ struct Params {
 @group(0) @binding(1) var<storage, read> coefficients: array<vec4<f32>>;
 // Per pair, ceil(K / 2) words of pack2x16float(u_2j · scale, u_2j+1 · scale).
 @group(0) @binding(2) var<storage, read> rows: array<u32>;
-// Per pair: (reference + ε, mean, lower − margin, upper + margin), as the engine computes them.
+// Per pair: (reference + ε, mean, lower − margin, upper + margin), as the engine computes them;
+// then, at params.pairs + pair, the fitted reference's offsets (R, G, B, unused).
 @group(0) @binding(3) var<storage, read> pair_range: array<vec4<f32>>;
 // 1 / c for polar bins (t_lo, t_hi), 45 × 45, computed in double precision like the engine's.
 @group(0) @binding(4) var<storage, read> inv_cos_weight: array<f32>;
@@ -76,7 +78,8 @@ fn evaluate(pair: u32) {
         sum = sum + frac * (upper - sum);
     }
     let range = pair_range[pair];
-    let m = clamp(range.y + sum, vec3<f32>(range.z), vec3<f32>(range.w));
+    let offset = pair_range[params.pairs + pair].xyz;
+    let m = clamp(range.y + sum, vec3<f32>(range.z), vec3<f32>(range.w)) + offset;
     let value = max((exp(m) * range.x - MAP_EPSILON) * inv_c, vec3<f32>(0.0));
     rho[3u * pair] = value.x;
     rho[3u * pair + 1u] = value.y;

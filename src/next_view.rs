@@ -147,7 +147,7 @@ pub fn rank_views(
 ) -> Vec<RankedView> {
     let solution = solver.solve();
     let basis = solver.basis().clone();
-    let reconstruction = Reconstruction::new(basis.clone(), &solution.coefficients);
+    let reconstruction = solution.reconstruction(basis.clone());
     let posterior = solver.posterior();
     let a = importance(&posterior, &reconstruction);
     let before = weighted_variance(posterior.precision(), &a);

@@ -272,7 +272,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             "{t:?}"
         );
     }
-    // Sparse: paper, the global prior, the fitted mean, 2 views, LDR, max policy; plus the
+    // Sparse: paper, the global prior, the database's mean, 2 views, LDR, max policy; plus the
     // oracle and the analytic fit.
     assert_eq!(report.aggregates.len(), 8, "{:?}", report.aggregates);
     assert_eq!(report.rows.len(), 2 * 8);

@@ -321,6 +321,50 @@ fn reconstruction_mode_matches_the_materialised_table() {
     );
 }
 
+/// A fitted reference's offsets reach the GPU's evaluation: with one, the GPU's table is the
+/// engine's reconstruction measured from it (a narrow anisotropic lobe the components alone
+/// could not hold); set back to none, the plain one again.
+#[test]
+fn a_fitted_reference_moves_the_gpu_evaluation_as_it_moves_the_engine() {
+    use burnish::solver::FittedReference;
+    use burnish::solver::analytic_fit::LambertGgx;
+    let gpu = gpu();
+    let basis = common::small_basis(8);
+    let mut r = renderer(&gpu);
+    r.set_basis(&basis).unwrap();
+    let x = coefficients(&basis, 1);
+    r.set_coefficients(&x).unwrap();
+    let model = LambertGgx {
+        albedo: [0.3, 0.2, 0.1],
+        f0: [0.9, 0.6, 0.3],
+        specular: 1.0,
+        alpha_x: 0.08,
+        alpha_y: 0.2,
+        rotation: 0.4,
+    };
+    let reference = std::sync::Arc::new(FittedReference::new(basis.clone(), model));
+    let plain = Reconstruction::new(basis.clone(), &x).materialize();
+    let measured = Reconstruction::new(basis.clone(), &x)
+        .with_reference(Some(reference.clone()))
+        .materialize();
+    let (_, apart) = table_errors(&plain, &measured);
+    assert!(
+        apart > 0.1,
+        "the reference must change the table: mean rel {apart}"
+    );
+
+    r.set_fitted_reference(Some(&reference)).unwrap();
+    let on_gpu = r.reconstruction_table(&gpu.device, &gpu.queue).unwrap();
+    let (max, mean) = table_errors(&on_gpu, &measured);
+    eprintln!("with a fitted reference: GPU table vs engine: max rel {max:.2e}, mean {mean:.2e}");
+    assert!(max < 3e-2 && mean < 1e-3, "max {max}, mean {mean}");
+
+    r.set_fitted_reference(None).unwrap();
+    let on_gpu = r.reconstruction_table(&gpu.device, &gpu.queue).unwrap();
+    let (max, mean) = table_errors(&on_gpu, &plain);
+    assert!(max < 3e-2 && mean < 1e-3, "without: max {max}, mean {mean}");
+}
+
 /// A glossy GGX table rendered with nearest bins bands at the 2° × 10° bin edges; bilinear
 /// interpolation in θ and φ of light and view follows the continuous BRDF much more closely.
 /// Measured against the exact per-pixel render of the same BRDF: the relative RMS error, and

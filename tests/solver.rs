@@ -181,10 +181,7 @@ fn solve_with(
             .all(|x| x.is_finite())
     );
     assert!(solution.condition_number.is_finite() && solution.condition_number >= 1.0);
-    (
-        Reconstruction::new(basis, &solution.coefficients),
-        solution.alpha,
-    )
+    (solution.reconstruction(basis), solution.alpha)
 }
 
 /// Mean luminance-ish level of a table (mean of all stored values).
@@ -361,10 +358,7 @@ fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
         }
         let observed = solver.observed_bins();
         let solution = solver.solve();
-        (
-            observed,
-            Reconstruction::new(basis.clone(), &solution.coefficients),
-        )
+        (observed, solution.reconstruction(basis.clone()))
     };
     let (unclipped_bins, unclipped) = solve(Censoring::OmitClipped, false);
     let (omitted_bins, omitted) = solve(Censoring::OmitClipped, true);
@@ -499,7 +493,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     };
     let error = |solver: &Solver| {
         let solution = solver.solve();
-        let estimate = Reconstruction::new(basis.clone(), &solution.coefficients).materialize();
+        let estimate = solution.reconstruction(basis.clone()).materialize();
         table_errors(&truth, &estimate).relative_rmse
     };
     let mut database = Solver::with_model(
@@ -513,7 +507,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         "the database's mean needs no fit"
     );
     database.refit_prior_mean();
-    assert_eq!(database.effective_prior_mean(), None);
+    assert!(database.reference().is_none());
 
     let always = PriorMean::Fitted {
         margin_nats: f64::NEG_INFINITY,
@@ -524,7 +518,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         .mean_fit_request()
         .expect("painted bins ask for a fit");
     assert_eq!(request.bins(), table.observed_count());
-    assert_eq!(fitted.effective_prior_mean(), None, "no fit installed yet");
+    assert!(fitted.reference().is_none(), "no fit installed yet");
     let early = request.run();
     assert!(fitted.install_fitted_mean(early.clone()));
     assert!(fitted.prior_mean_is_current());
@@ -546,9 +540,22 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     }
     fitted.apply_all(&more);
     assert!(!fitted.prior_mean_is_current());
+    assert!(fitted.reference().is_some(), "the stale fit stands in");
+    // Bins are measured from the reference the solve uses, whatever came first: adding bins
+    // after the fit gives the normal equations of installing it after them.
+    let mut batch = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
+    batch.apply_all(&changes);
+    batch.apply_all(&more);
+    assert!(batch.install_fitted_mean(early.clone()));
+    let (n_a, r_a) = fitted.normal_equations();
+    let (n_b, r_b) = batch.normal_equations();
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * (1.0 + a.abs().max(b.abs()));
+    assert!(n_a.iter().zip(n_b).all(|(&a, &b)| close(a, b)));
     assert!(
-        fitted.effective_prior_mean().is_some(),
-        "the stale fit stands in"
+        r_a.iter()
+            .flatten()
+            .zip(r_b.iter().flatten())
+            .all(|(&a, &b)| close(a, b))
     );
     let other_basis = small_basis(10);
     let mut elsewhere = Solver::with_model(other_basis, Regularization::Auto, model(always));
@@ -563,16 +570,25 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     fitted.refit_prior_mean();
     assert!(fitted.prior_mean_is_current());
     assert_ne!(
-        fitted.effective_prior_mean().map(<[_]>::to_vec),
-        Some(early.coefficients),
+        fitted.reference().map(|r| *r.model()),
+        Some(*early.reference.model()),
         "the new bins' fit replaced the first"
+    );
+    assert_eq!(
+        fitted.solve().reference.as_ref().map(|r| *r.model()),
+        fitted.reference().map(|r| *r.model()),
+        "a solution carries the reference its coefficients are measured from"
     );
 
     // A start keeps precedence, and an empty painting is the database's mean.
     let start = vec![[0.5; 3]; basis.components()];
     let mut started = fitted.clone();
     started.set_prior_mean(Some(start.clone()));
-    assert_eq!(started.effective_prior_mean(), Some(&start[..]));
+    assert_eq!(started.prior_mean(), Some(&start[..]));
+    assert!(
+        started.reference().is_none(),
+        "a start is not measured from a fit"
+    );
     assert!(started.mean_fit_request().is_none());
     let cleared: Vec<BinChange> = table
         .observed()
@@ -584,7 +600,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         .collect();
     fitted.apply_all(&cleared);
     assert_eq!(fitted.observed_bins(), 0);
-    assert_eq!(fitted.effective_prior_mean(), None);
+    assert!(fitted.reference().is_none());
     assert!(fitted.prior_mean_is_current());
     assert!(
         fitted

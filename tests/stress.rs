@@ -645,7 +645,7 @@ fn random_sessions_stay_finite_exact_and_equal_a_batch_build() {
         // The reconstruction of the default solve.
         session.solver.set_regularization(Regularization::Auto);
         let solution = session.solver.solve();
-        let recon = Reconstruction::new(basis(), &solution.coefficients);
+        let recon = solution.reconstruction(basis());
         check_reconstruction(&recon, &probe_pairs(&table))?;
 
         // The same operations again: same bits without any rebuild.
@@ -688,7 +688,7 @@ fn materialised_tables_are_physical_and_thread_count_independent() {
         for pool in &pools {
             let (solution, table) = pool.install(|| {
                 let solution = session.solver.solve();
-                let table = Reconstruction::new(basis(), &solution.coefficients).materialize();
+                let table = solution.reconstruction(basis()).materialize();
                 (solution, table)
             });
             match &reference {
@@ -698,7 +698,7 @@ fn materialised_tables_are_physical_and_thread_count_independent() {
                         format!("{} samples", session.samples.len())
                     });
                     prop_assert!(table.is_physical(), "every entry finite and ≥ 0");
-                    let recon = Reconstruction::new(basis(), &solution.coefficients);
+                    let recon = solution.reconstruction(basis());
                     for pair in probe_pairs(&session.table) {
                         let (lo, hi) = pair_directions(pair);
                         prop_assert_eq!(table.get(lo, hi), recon.eval(hi, lo));
@@ -844,7 +844,7 @@ fn ill_conditioned_systems_give_finite_backward_stable_solutions() {
                 format!("{observed} neighbouring bins of one slice")
             });
         }
-        let recon = Reconstruction::new(basis(), &solution.coefficients);
+        let recon = solution.reconstruction(basis());
         check_reconstruction(&recon, &probe_pairs(&session.table))?;
 
         // Backward error of the plain ridge solve: ‖(N + λI) x − r‖ against ‖N + λI‖ ‖x‖ + ‖r‖.
@@ -907,7 +907,7 @@ fn one_sample_at_any_scale_and_overwhelming_regularisation() {
         })?;
         let solution = session.solver.solve();
         check_solution(&solution, 1)?;
-        let recon = Reconstruction::new(basis(), &solution.coefficients);
+        let recon = solution.reconstruction(basis());
         check_reconstruction(&recon, &probe_pairs(&session.table))?;
 
         session.solver.set_regularization(huge);
@@ -915,7 +915,7 @@ fn one_sample_at_any_scale_and_overwhelming_regularisation() {
         check_solution(&solution, 1)?;
         let scale = max_abs(solution.coefficients.iter().flatten());
         prop_assert!(scale < 1e-250, "{:?} leaves coefficients {:e}", huge, scale);
-        let recon = Reconstruction::new(basis(), &solution.coefficients);
+        let recon = solution.reconstruction(basis());
         for pair in probe_pairs(&session.table) {
             prop_assert_eq!(recon.eval_pair(pair), mean.eval_pair(pair));
         }

@@ -111,6 +111,9 @@ fn dabs_in_any_batching_give_the_batch_solution() {
     let (_, gbuffer) = view(30.0);
     let paint = painting(&gbuffer);
     let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
+    // On the database's mean, every snapshot comes from input (a fitted reference adds one
+    // published without input: see a_sync_waits_for_the_prior_mean_fitted_to_the_paint).
+    worker.send(Command::SetPriorMean(burnish::solver::PriorMean::Database));
     worker.send(Command::SetView {
         view: 0,
         gbuffer: gbuffer.clone(),
@@ -131,7 +134,11 @@ fn dabs_in_any_batching_give_the_batch_solution() {
     }
     let snapshot = sync(&worker);
     assert!(sent > 10);
-    let expected = batch_solution(basis.clone(), &[(0, &gbuffer, &paint)]);
+    let on_database = burnish::solver::PriorModel {
+        mean: burnish::solver::PriorMean::Database,
+        ..burnish::solver::PriorModel::CALIBRATED
+    };
+    let expected = batch_solution_with(basis.clone(), &[(0, &gbuffer, &paint)], on_database);
     assert!(
         close(&snapshot.coefficients, &expected, 1e-9),
         "incremental {:?} vs batch {:?}",
@@ -336,7 +343,10 @@ fn analyses_answer_from_the_state_when_asked() {
         candidates: 6,
     });
     let snapshot = sync(&worker);
-    let table = burnish::solver::Reconstruction::new(basis, &snapshot.coefficients).materialize();
+    let table = snapshot
+        .reconstruction()
+        .expect("a basis is ready")
+        .materialize();
     let (mut predicted, mut uncertain, mut ranked) = (false, false, false);
     for _ in 0..3 {
         match wait() {
@@ -415,6 +425,10 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
     }
     let snapshot = sync(&worker);
     assert!(!snapshot.fitting_mean, "a sync answers once the fit is in");
+    assert!(
+        snapshot.reference.is_some(),
+        "the snapshot carries the fit its coefficients are measured from"
+    );
 
     let model = PriorModel {
         mean: always,
@@ -427,7 +441,11 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
         &snapshot.coefficients[..2],
         &expected[..2]
     );
-    let database = batch_solution(basis, &[(0, &gbuffer, &paint)]);
+    let on_database = PriorModel {
+        mean: PriorMean::Database,
+        ..PriorModel::CALIBRATED
+    };
+    let database = batch_solution_with(basis, &[(0, &gbuffer, &paint)], on_database);
     assert!(
         !close(&snapshot.coefficients, &database, 1e-3),
         "the fitted mean moved the solution"
@@ -436,5 +454,6 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
     // Back to the database's mean: the same paint solves as it always did.
     worker.send(Command::SetPriorMean(PriorMean::Database));
     let back = sync(&worker);
+    assert!(back.reference.is_none());
     assert!(close(&back.coefficients, &database, 1e-9));
 }

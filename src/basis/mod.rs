@@ -216,10 +216,27 @@ impl Basis {
     /// clamped to the database's range (plus a margin) so that wild paint stays bounded.
     #[inline]
     pub fn centred_observation(&self, pair: PairIndex, rho: f64) -> f64 {
+        self.centred_residual(pair, rho, 0.0)
+    }
+
+    /// As [`Self::centred_observation`], for a value measured from a reference that lies
+    /// `offset` above the mean in the mapped domain (a fitted model's, see
+    /// `solver::fitted_mean`): the residual is clamped to the range the database spans about
+    /// its mean, as the reconstruction clamps what it adds to the reference.
+    #[inline]
+    pub fn centred_residual(&self, pair: PairIndex, rho: f64, offset: f64) -> f64 {
         let data = self.data();
         let m = map_value(rho, cos_weight(pair), data[REFERENCE + pair.index()] as f64);
         let (lo, hi) = self.mapped_range(pair);
-        m.clamp(lo, hi) - data[MEAN + pair.index()] as f64
+        (m - offset).clamp(lo, hi) - data[MEAN + pair.index()] as f64
+    }
+
+    /// map(ρ) − mean of pair `pair`, unclamped.
+    #[inline]
+    pub fn mapped_from_mean(&self, pair: PairIndex, rho: f64) -> f64 {
+        let data = self.data();
+        map_value(rho, cos_weight(pair), data[REFERENCE + pair.index()] as f64)
+            - data[MEAN + pair.index()] as f64
     }
 
     /// The mapped range a reconstruction of pair `pair` may take.

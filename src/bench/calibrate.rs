@@ -391,6 +391,7 @@ pub fn calibrate(options: &CalibrateOptions, log: &dyn Fn(&str)) -> Result<Calib
                                 &solution.coefficients,
                                 c.model.knots,
                             )
+                            .with_reference(solution.reference)
                             .materialize();
                             let e = table_errors(&truth, &estimate);
                             (e.relative_rmse, e.log_rmse)

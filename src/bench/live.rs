@@ -8,7 +8,7 @@ use crate::scene::{
     BuiltinShape, GBuffer, Object, SampleCounts, Scene, SkipReason, guide_image, render_brdf,
     sample_pixel, samples_from_image,
 };
-use crate::solver::{Reconstruction, SampleKey, Solver, SparseTable};
+use crate::solver::{SampleKey, Solver, SparseTable};
 use crate::table::{PAIRS, PairIndex, pair_index};
 use rand::{RngExt, SeedableRng};
 use std::time::Instant;
@@ -218,7 +218,7 @@ pub(crate) fn measure(
         }
 
         let solution = solver.solve();
-        let recon = Reconstruction::new(basis.clone(), &solution.coefficients);
+        let recon = solution.reconstruction(basis.clone());
         let mut full = Vec::new();
         let mut rebuild = Vec::new();
         for _ in 0..lo.repeats {

@@ -8,7 +8,7 @@ use crate::basis::Basis;
 use crate::metrics::table_errors;
 use crate::next_view::{candidate_scenes, rank_views};
 use crate::scene::{GBuffer, Object, PaintRange, Scene, render_table, samples_from_image_in};
-use crate::solver::{Policy, PriorModel, Reconstruction, Regularization, Solver, SparseTable};
+use crate::solver::{Policy, PriorModel, Regularization, Solver, SparseTable};
 use crate::table::SymTable;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -71,7 +71,7 @@ fn reconstruct(
 
 fn score(basis: &Arc<Basis>, truth: &SymTable, solver: &Solver) -> f64 {
     let solution = solver.solve();
-    let estimate = Reconstruction::new(basis.clone(), &solution.coefficients).materialize();
+    let estimate = solution.reconstruction(basis.clone()).materialize();
     table_errors(truth, &estimate).relative_rmse
 }
 

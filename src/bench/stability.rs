@@ -142,7 +142,7 @@ pub fn probe(basis: &Arc<Basis>, view: &GBuffer) -> Vec<StabilityCase> {
             solver.apply_all(&changes);
             solver.refit_prior_mean();
             let solution = solver.solve();
-            let recon = Reconstruction::new(basis.clone(), &solution.coefficients).materialize();
+            let recon = solution.reconstruction(basis.clone()).materialize();
             let values = recon.pairs();
             let physical = recon.is_physical();
             let (min_rho, max_rho) = values

@@ -86,10 +86,10 @@ pub struct ReconstructArgs {
     /// prior:α or ridge:λ.
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
-    /// Where the prior is centred without --start: database (the database's mean material),
-    /// fitted:M (Lambert + GGX fitted to the paint, when it makes the paint e^M times more
-    /// likely) or fitted (always).
-    #[arg(long, default_value = "database")]
+    /// Where the prior is centred without --start: fitted:M (Lambert + GGX fitted to the
+    /// paint, when it makes the paint e^M times more likely than the database's mean; the
+    /// default, as calibrated), fitted (always) or database (the database's mean material).
+    #[arg(long, default_value = "fitted:3")]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.
     #[arg(long, default_value = "mean")]
@@ -302,7 +302,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     let solution = solver.solve();
 
     let start = Instant::now();
-    let reconstruction = Reconstruction::new(basis, &solution.coefficients);
+    let reconstruction = solution.reconstruction(basis);
     let full = reconstruction.materialize();
     let materialize_ms = start.elapsed().as_secs_f64() * 1e3;
     let start = Instant::now();

@@ -34,7 +34,7 @@ pub struct SuggestArgs {
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
     /// Where the prior is centred: database, fitted:M or fitted (as `reconstruct` reads it).
-    #[arg(long, default_value = "database")]
+    #[arg(long, default_value = "fitted:3")]
     pub prior_mean: PriorMean,
 }
 

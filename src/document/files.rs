@@ -230,13 +230,12 @@ impl Document {
     /// as it is should the worker not settle within [`EXPORT_SETTLE_TIMEOUT`]; the
     /// full table is made on the export's thread.
     fn current_reconstruction(&self, path: &Path) -> crate::Result<Reconstruction> {
-        let Some(basis) = self.snapshot.basis.clone() else {
-            return Err(crate::Error::invalid(
+        self.snapshot.reconstruction().ok_or_else(|| {
+            crate::Error::invalid(
                 path,
                 "the basis is not ready yet; export when the status bar says it is",
-            ));
-        };
-        Ok(Reconstruction::new(basis, &self.snapshot.coefficients))
+            )
+        })
     }
 
     /// Writes the BRDF to `path` on a thread of its own (making the full table and writing
@@ -261,13 +260,10 @@ impl Document {
         let label = format!("exporting {}…", file_name(path));
         self.file_jobs
             .spawn(label, JobKind::Export, target.clone(), move || {
-                let reconstruction = match settled.wait(EXPORT_SETTLE_TIMEOUT) {
-                    Some(snapshot) => match &snapshot.basis {
-                        Some(basis) => Reconstruction::new(basis.clone(), &snapshot.coefficients),
-                        None => reconstruction,
-                    },
-                    None => reconstruction,
-                };
+                let reconstruction = settled
+                    .wait(EXPORT_SETTLE_TIMEOUT)
+                    .and_then(|snapshot| snapshot.reconstruction())
+                    .unwrap_or(reconstruction);
                 let table = reconstruction.materialize();
                 let message = match format {
                     ExportKind::Merl => {

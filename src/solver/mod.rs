@@ -12,7 +12,7 @@ pub mod ridge;
 pub mod sparse;
 
 pub use bands::{BANDS, BandWeights, DEFAULT_KNOTS, KnotSpacing, pair_bands, pair_bands_spaced};
-pub use fitted_mean::{FittedMean, MeanFitRequest};
+pub use fitted_mean::{FittedMean, FittedReference, MeanFitRequest};
 pub use prior::{
     Censoring, DEFAULT_ALPHA, EVIDENCE_BAND_CORRELATIONS, PriorMean, PriorModel, Regularization,
 };

@@ -2,15 +2,18 @@
 //! materialised in parallel as a full table for export.
 
 use super::bands::{BANDS, DEFAULT_KNOTS, KnotSpacing, pair_bands_spaced};
+use super::fitted_mean::FittedReference;
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::table::{DIRECTIONS, DirIndex, PHI_BINS, PairIndex, Rgb, SymTable, pair_index};
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// A basis and its coefficients: ρ = unmap(mean + Σ_k u_k x_k(θ_d)), clamped to the range the
-/// database spans so that one stray sample can't blow a highlight up. x(θ_d) is one set of K
-/// coefficients (the global prior) or the blend of the two [`BANDS`] sets around the pair's θ_d
-/// (the localised prior, [`super::bands`]).
+/// A basis and its coefficients: ρ = unmap(clamp(mean + Σ_k u_k x_k(θ_d)) + o), clamped to
+/// the range the database spans so that one stray sample can't blow a highlight up. x(θ_d) is
+/// one set of K coefficients (the global prior) or the blend of the two [`BANDS`] sets around
+/// the pair's θ_d (the localised prior, [`super::bands`]); o is 0, or a fitted reference's
+/// offset map(F) − mean when the coefficients were measured from one
+/// ([`super::fitted_mean`]).
 #[derive(Clone, Debug)]
 pub struct Reconstruction {
     basis: Arc<Basis>,
@@ -20,6 +23,8 @@ pub struct Reconstruction {
     knots: KnotSpacing,
     /// Coefficients by channel, bands × K each (band-major), in f32 for the evaluation loops.
     coefficients: [Vec<f32>; 3],
+    /// The fitted reference the coefficients are measured from, if any.
+    reference: Option<Arc<FittedReference>>,
 }
 
 impl Reconstruction {
@@ -45,7 +50,26 @@ impl Reconstruction {
             bands,
             knots,
             coefficients,
+            reference: None,
         }
+    }
+
+    /// The same coefficients measured from `reference` (`None`: the basis's mean). A
+    /// reference tabulated on another basis is ignored: its offsets mean nothing here.
+    pub fn with_reference(mut self, reference: Option<Arc<FittedReference>>) -> Self {
+        debug_assert!(
+            reference
+                .as_ref()
+                .is_none_or(|r| Arc::ptr_eq(r.basis(), &self.basis)),
+            "a reference tabulated on another basis"
+        );
+        self.reference = reference.filter(|r| Arc::ptr_eq(r.basis(), &self.basis));
+        self
+    }
+
+    /// The fitted reference the coefficients are measured from, if any.
+    pub fn reference(&self) -> Option<&Arc<FittedReference>> {
+        self.reference.as_ref()
     }
 
     /// Coefficient sets: 1 (global) or [`BANDS`] (localised).
@@ -108,6 +132,7 @@ impl Reconstruction {
             references: self.basis.references(),
             lowers: self.basis.lowers(),
             uppers: self.basis.uppers(),
+            offsets: self.reference.as_ref().map(|r| r.offsets()),
             coefficients: &self.coefficients,
         }
     }
@@ -145,6 +170,8 @@ struct Evaluator<'a> {
     references: &'a [f32],
     lowers: &'a [f32],
     uppers: &'a [f32],
+    /// A fitted reference's map(F) − mean per pair, if any.
+    offsets: Option<&'a [[f32; 3]]>,
     coefficients: &'a [Vec<f32>; 3],
 }
 
@@ -191,11 +218,17 @@ impl Evaluator<'_> {
         let lo = self.lowers[pair] - RANGE_MARGIN;
         let hi = self.uppers[pair] + RANGE_MARGIN;
         let inv_c = (1.0 / cos_weight_polar(t_l, t_v)) as f32;
-        let unmap = |d: f32| {
-            let m = (mean + d).clamp(lo, hi);
-            // Clamping m keeps ρ finite; max(0) also maps a NaN from bad coefficients to 0.
+        let offset = self.offsets.map_or([0.0; 3], |o| o[pair]);
+        let unmap = |d: f32, offset: f32| {
+            // Clamping keeps ρ finite (the offset is bounded); max(0) also maps a NaN from
+            // bad coefficients to 0.
+            let m = (mean + d).clamp(lo, hi) + offset;
             ((m.exp() * reference - MAP_EPSILON as f32) * inv_c).max(0.0)
         };
-        [unmap(r), unmap(g), unmap(b)]
+        [
+            unmap(r, offset[0]),
+            unmap(g, offset[1]),
+            unmap(b, offset[2]),
+        ]
     }
 }

@@ -43,10 +43,12 @@
 //! them on the folds, so only tighter couplings are candidates.
 //!
 //! **The prior's mean** is the database's mean material (all coefficients 0), a starting
-//! material's projection (`Solver::set_prior_mean`), or, under [`PriorMean::Fitted`], the
-//! projection of Lambert + GGX fitted to the painted bins ([`super::fitted_mean`]): a fit
-//! too slow for the live loop, so it is installed apart (`Solver::install_fitted_mean`) and
-//! taken only when the evidence favours it by the model's margin.
+//! material's projection (`Solver::set_prior_mean`). Under [`PriorMean::Fitted`] the bins are
+//! measured instead from Lambert + GGX fitted to them ([`super::fitted_mean`]): y_p =
+//! map(ρ_p) − map(F_p), and the reconstruction adds the coefficients' part back onto map(F).
+//! The fit is too slow for the live loop, so it is installed apart
+//! (`Solver::install_fitted_mean`) and taken only when the evidence favours it by the model's
+//! margin; taking or dropping it re-measures every bin and rebuilds the normal equations.
 //!
 //! **Updates.** N = Σ_p w_p ψ_pψ_pᵀ and r_c = Σ_p w_p ψ_p y_pc are kept up to date one bin change
 //! at a time (O(K²) when a bin appears, empties or its weight changes, O(K) when only its value
@@ -60,7 +62,7 @@
 
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
-use super::fitted_mean::{FittedMean, MeanFitRequest, SharedProjector};
+use super::fitted_mean::{FittedMean, FittedReference, MeanFitRequest};
 pub use super::posterior::Posterior;
 pub use super::prior::{Censoring, DEFAULT_ALPHA, PriorMean, PriorModel, Regularization};
 use super::prior::{EVIDENCE_BAND_CORRELATIONS, EVIDENCE_MARGIN_NATS};
@@ -107,6 +109,15 @@ pub struct Solution {
     pub condition_number: f64,
     /// Observed bins the solve saw.
     pub observed_bins: usize,
+    /// The fitted reference the coefficients are measured from (`None`: the basis's mean).
+    pub reference: Option<Arc<FittedReference>>,
+}
+
+impl Solution {
+    /// The BRDF these coefficients describe on `basis` (the solver's), reference included.
+    pub fn reconstruction(&self, basis: Arc<Basis>) -> super::Reconstruction {
+        super::Reconstruction::new(basis, &self.coefficients).with_reference(self.reference.clone())
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -133,11 +144,10 @@ pub struct Solver {
     model: PriorModel,
     /// The prior's mean coefficients (a starting material's projection, K rows), or zero.
     prior_mean: Option<Vec<[f64; 3]>>,
-    /// The last fitted mean installed ([`PriorMean::Fitted`]), used when no start is set.
+    /// The last fitted reference installed ([`PriorMean::Fitted`]), used when no start is set.
     fitted: Option<InstalledMean>,
     /// Counts the changes of the observed bins, so that a fit knows which bins it saw.
     generation: u64,
-    projector: SharedProjector,
     observed: BTreeMap<PairIndex, Observed>,
     /// Observed pairs with at least one bounded channel, solved for at [`Solver::solve`].
     censored: BTreeSet<PairIndex>,
@@ -152,13 +162,13 @@ pub struct Solver {
     changes_since_rebuild: usize,
 }
 
-/// A fitted mean and whether the evidence took it.
+/// A fitted reference and whether the evidence took it.
 #[derive(Clone, Debug)]
 struct InstalledMean {
     generation: u64,
-    /// `None` when the bins are not clearly more likely under it than under the database's
-    /// mean.
-    coefficients: Option<Vec<[f64; 3]>>,
+    /// `None` when the bins are not clearly more likely measured from it than from the
+    /// database's mean.
+    reference: Option<Arc<FittedReference>>,
 }
 
 /// Rec. 709 luminance × cos θ_l cos θ_v of a bin value: what it adds to a render.
@@ -196,7 +206,6 @@ impl Solver {
             prior_mean: None,
             fitted: None,
             generation: 0,
-            projector: SharedProjector::default(),
             observed: BTreeMap::new(),
             censored: BTreeSet::new(),
             normal: vec![0.0; d * d],
@@ -230,6 +239,7 @@ impl Solver {
     /// on the database's mean material. Rows past K are ignored, missing ones are zero.
     pub fn set_prior_mean(&mut self, mean: Option<Vec<[f64; 3]>>) {
         let k = self.basis.components();
+        let before = self.reference_ptr();
         self.prior_mean = mean.map(|m| {
             (0..k)
                 .map(|i| {
@@ -240,14 +250,21 @@ impl Solver {
                 })
                 .collect()
         });
+        if self.reference_ptr() != before {
+            self.recentre();
+        }
     }
 
     /// Where the prior is centred without a start ([`PriorModel::mean`]); a fitted mean
     /// installed for another rule is dropped.
     pub fn set_mean_kind(&mut self, mean: PriorMean) {
         if self.model.mean != mean {
+            let before = self.reference_ptr();
             self.model.mean = mean;
             self.fitted = None;
+            if self.reference_ptr() != before {
+                self.recentre();
+            }
         }
     }
 
@@ -256,16 +273,31 @@ impl Solver {
         self.prior_mean.as_deref()
     }
 
-    /// The mean the next solve centres the prior on: a starting material's, else the fitted
-    /// mean when the model asks for one and the evidence took it; `None` is the database's.
-    pub fn effective_prior_mean(&self) -> Option<&[[f64; 3]]> {
+    /// The fitted reference the bins are measured from, when the model asks for one, no start
+    /// is set and the evidence took it; `None`: the basis's mean. A reconstruction of this
+    /// solver's coefficients must add it back ([`super::Solution::reconstruction`]).
+    pub fn reference(&self) -> Option<&Arc<FittedReference>> {
         if self.prior_mean.is_some() {
-            return self.prior_mean.as_deref();
+            return None;
         }
         match self.model.mean {
             PriorMean::Database => None,
-            PriorMean::Fitted { .. } => self.fitted.as_ref()?.coefficients.as_deref(),
+            PriorMean::Fitted { .. } => self.fitted.as_ref()?.reference.as_ref(),
         }
+    }
+
+    fn reference_ptr(&self) -> Option<*const FittedReference> {
+        self.reference().map(Arc::as_ptr)
+    }
+
+    /// Re-measures every bin from the current reference and rebuilds the normal equations.
+    fn recentre(&mut self) {
+        let mut observed = std::mem::take(&mut self.observed);
+        for (&pair, obs) in observed.iter_mut() {
+            obs.y = self.centred(pair, obs.rho);
+        }
+        self.observed = observed;
+        self.rebuild();
     }
 
     /// What a fit of the prior's mean to the bins painted now needs, or `None` when the mean
@@ -283,7 +315,6 @@ impl Solver {
                 .map(|(&pair, obs)| (pair, obs.rho, obs.bounds))
                 .collect(),
             basis: self.basis.clone(),
-            projector: self.projector.clone(),
         })
     }
 
@@ -298,27 +329,21 @@ impl Solver {
         if self.observed.is_empty()
             || !newer
             || fitted.generation > self.generation
-            || !Arc::ptr_eq(&fitted.basis, &self.basis)
+            || !Arc::ptr_eq(fitted.reference.basis(), &self.basis)
         {
             return false;
         }
-        let before = self.effective_prior_mean().map(<[_]>::to_vec);
+        let before = self.reference_ptr();
         let margin = match self.model.mean {
             PriorMean::Fitted { margin_nats } => margin_nats,
             PriorMean::Database => f64::INFINITY,
         };
-        let k = self.basis.components();
-        let mut coefficients = fitted.coefficients;
-        coefficients.resize(k, [0.0; 3]);
-        coefficients
-            .iter_mut()
-            .flatten()
-            .for_each(|v| *v = if v.is_finite() { *v } else { 0.0 });
+        let reference = fitted.reference;
         let accepted = margin == f64::NEG_INFINITY || {
             let alpha = self.evidence_alpha();
             let rho = [self.model.band_correlation];
-            let with = self.evidence(alpha, Some(&coefficients), rho);
-            let without = self.evidence(alpha, None, rho);
+            let with = self.evidence_from(alpha, Some(&reference), rho);
+            let without = self.evidence_from(alpha, None, rho);
             match (with.first(), without.first()) {
                 (Some(&(_, with)), Some(&(_, without))) => with - without > margin,
                 _ => false,
@@ -326,9 +351,13 @@ impl Solver {
         };
         self.fitted = Some(InstalledMean {
             generation: fitted.generation,
-            coefficients: accepted.then_some(coefficients),
+            reference: accepted.then_some(reference),
         });
-        self.effective_prior_mean().map(<[_]>::to_vec) != before
+        let changed = self.reference_ptr() != before;
+        if changed {
+            self.recentre();
+        }
+        changed
     }
 
     /// Fits, projects and installs the prior's mean for the bins painted now, if it is not
@@ -361,8 +390,10 @@ impl Solver {
         self.model.rows(self.basis.components())
     }
 
+    /// y of a bin: its value mapped and measured from the reference (the basis's mean, or
+    /// the fitted reference the bins are measured from).
     fn centred(&self, pair: PairIndex, rho: [f64; 3]) -> [f64; 3] {
-        rho.map(|v| self.basis.centred_observation(pair, v))
+        centred_from(&self.basis, self.reference().map(|r| &**r), pair, rho)
     }
 
     /// Multiplicity × the rounded brightness weight of a bin of brightness `brightness`.
@@ -651,7 +682,7 @@ impl Solver {
                 .into_iter()
                 .filter(move |&rho| rho > configured),
         );
-        self.evidence(alpha, self.effective_prior_mean(), candidates)
+        self.evidence(alpha, self.prior_mean(), candidates)
     }
 
     /// α for the evidence: the prior's, or the calibrated one where the solve fits α itself
@@ -663,8 +694,40 @@ impl Solver {
         }
     }
 
+    /// (ρ, log marginal likelihood) of the painted bins, measured from `reference` (`None`:
+    /// the basis's mean) with the prior centred on zero, for each of `correlations`.
+    fn evidence_from(
+        &self,
+        alpha: f64,
+        reference: Option<&FittedReference>,
+        correlations: impl IntoIterator<Item = f64>,
+    ) -> Vec<(f64, f64)> {
+        let d = self.dimension();
+        let k = self.basis.components();
+        let mut rhs = vec![[0.0; 3]; d];
+        let mut yty = [0.0; 3];
+        for (&pair, obs) in &self.observed {
+            let y = centred_from(&self.basis, reference, pair, obs.rho);
+            for (j, phi) in obs.band.pairs() {
+                if phi == 0.0 {
+                    continue;
+                }
+                for (i, u) in obs.row.iter().enumerate() {
+                    for c in 0..3 {
+                        rhs[j * k + i][c] += obs.weight * phi * u * y[c];
+                    }
+                }
+            }
+            for c in 0..3 {
+                yty[c] += obs.weight * y[c] * y[c];
+            }
+        }
+        let r = Mat::<f64>::from_fn(d, 3, |i, c| rhs[i][c]);
+        self.evidence_of(alpha, r, yty, correlations)
+    }
+
     /// (ρ, log marginal likelihood) of the painted bins for each of `correlations`, with the
-    /// prior centred on `mean` (K rows; `None`: the database's mean).
+    /// prior centred on `mean` (K rows; `None`: zero).
     fn evidence(
         &self,
         alpha: f64,
@@ -690,6 +753,20 @@ impl Solver {
             }
             r -= &nx0;
         }
+        self.evidence_of(alpha, r, yty, correlations)
+    }
+
+    /// The evidence for right-hand side `r` and yᵀWy `yty` (see [`Self::evidence`]).
+    fn evidence_of(
+        &self,
+        alpha: f64,
+        r: Mat<f64>,
+        yty: [f64; 3],
+        correlations: impl IntoIterator<Item = f64>,
+    ) -> Vec<(f64, f64)> {
+        let d = self.dimension();
+        let k = self.basis.components();
+        let n = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
         let log_det = |l: faer::MatRef<'_, f64>| -> f64 {
             (0..l.nrows()).map(|i| 2.0 * l[(i, i)].ln()).sum()
         };
@@ -738,7 +815,7 @@ impl Solver {
         let mut m = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
         m += &prior;
         let mut rhs = Mat::<f64>::from_fn(d, 3, |i, c| self.rhs[i][c]);
-        if let Some(mean) = self.effective_prior_mean() {
+        if let Some(mean) = self.prior_mean() {
             // A prior N(x₀, ·) on every set adds (αP₀)(1 ⊗ x₀) to the right-hand side.
             let x0 = Mat::<f64>::from_fn(d, 3, |i, c| mean[i % k][c]);
             rhs += &prior * &x0;
@@ -789,6 +866,7 @@ impl Solver {
             band_correlation: model.band_correlation,
             condition_number,
             observed_bins: self.observed.len(),
+            reference: self.reference().cloned(),
         }
     }
 
@@ -936,6 +1014,22 @@ impl Solver {
         let t = 0.5 * (a + b);
         let t = if score(t) <= best.0 { t } else { best.1 };
         Some(t.exp())
+    }
+}
+
+/// y of a bin of value `rho`, measured from `reference` (`None`: the basis's mean).
+fn centred_from(
+    basis: &Basis,
+    reference: Option<&FittedReference>,
+    pair: PairIndex,
+    rho: [f64; 3],
+) -> [f64; 3] {
+    match reference {
+        None => rho.map(|v| basis.centred_observation(pair, v)),
+        Some(reference) => {
+            let offset = reference.offset(pair);
+            std::array::from_fn(|c| basis.centred_residual(pair, rho[c], offset[c] as f64))
+        }
     }
 }
 

@@ -32,8 +32,8 @@ use crate::next_view::{RankedView, candidate_scenes, rank_views};
 use crate::paint::PixelChange;
 use crate::scene::{GBuffer, Object, PaintRange, Scene, render_table, sample_pixel_in};
 use crate::solver::{
-    BinChange, FittedMean, MeanFitRequest, Policy, PriorMean, PriorModel, Reconstruction,
-    Regularization, SampleKey, Solver, SparseTable,
+    BinChange, FittedMean, FittedReference, MeanFitRequest, Policy, PriorMean, PriorModel,
+    Reconstruction, Regularization, SampleKey, Solver, SparseTable,
 };
 use crate::table::{PairIndex, SymTable};
 use arc_swap::ArcSwap;
@@ -152,6 +152,8 @@ pub struct Snapshot {
     pub basis: Option<Arc<Basis>>,
     /// x_kc for each component; empty without a basis.
     pub coefficients: Arc<Vec<[f64; 3]>>,
+    /// The fitted reference the coefficients are measured from (`None`: the basis's mean).
+    pub reference: Option<Arc<FittedReference>>,
     pub stats: SolveStats,
     /// The earliest pointer event among the inputs this snapshot is the first to include.
     pub oldest_input: Option<Instant>,
@@ -161,6 +163,19 @@ pub struct Snapshot {
     /// Whether the prior's mean is still being fitted to the paint: a later snapshot will
     /// follow without any input (the UI keeps looking for it).
     pub fitting_mean: bool,
+}
+
+impl Snapshot {
+    /// The BRDF this snapshot holds, or `None` before a basis is ready (or while the
+    /// coefficients belong to another basis).
+    pub fn reconstruction(&self) -> Option<Reconstruction> {
+        let basis = self.basis.clone()?;
+        let sets = self.coefficients.len() / basis.components().max(1);
+        let whole = sets * basis.components() == self.coefficients.len();
+        (whole && (sets == 1 || sets == crate::solver::BANDS)).then(|| {
+            Reconstruction::new(basis, &self.coefficients).with_reference(self.reference.clone())
+        })
+    }
 }
 
 /// Figures for the status bar.
@@ -317,6 +332,7 @@ struct WorkerState {
     updates_out: Sender<Vec<BinChange>>,
     last_stats: SolveStats,
     last_coefficients: Arc<Vec<[f64; 3]>>,
+    last_reference: Option<Arc<FittedReference>>,
     /// Kept as a table so that a later basis gets its own projection.
     start_material: Option<Arc<SymTable>>,
     prior_mean: PriorMean,
@@ -350,6 +366,7 @@ impl WorkerState {
             updates_out,
             last_stats: SolveStats::default(),
             last_coefficients: Arc::new(Vec::new()),
+            last_reference: None,
             start_material: None,
             prior_mean: PriorModel::CALIBRATED.mean,
             jobs: None,
@@ -599,13 +616,12 @@ impl WorkerState {
                 view,
                 version,
                 gbuffer,
-                basis: solver.basis().clone(),
-                coefficients: self.last_coefficients.clone(),
+                reconstruction: self.last_reconstruction(solver),
             },
             (Command::EstimateUncertainty, Some(solver)) => Job::Uncertainty {
                 version,
                 solver: Box::new(solver.clone()),
-                coefficients: self.last_coefficients.clone(),
+                reconstruction: self.last_reconstruction(solver),
             },
             (
                 Command::RankViews {
@@ -700,6 +716,12 @@ impl WorkerState {
         self.solver = Some(solver);
     }
 
+    /// The last published BRDF, on `solver`'s basis.
+    fn last_reconstruction(&self, solver: &Solver) -> Reconstruction {
+        Reconstruction::new(solver.basis().clone(), &self.last_coefficients)
+            .with_reference(self.last_reference.clone())
+    }
+
     fn publish(
         &mut self,
         changes: &[BinChange],
@@ -712,21 +734,31 @@ impl WorkerState {
         if let Some(solver) = &mut self.solver {
             solver.apply_all(&changes[solver_start..]);
         }
-        let (coefficients, condition_number, alpha, components, basis) = match &self.solver {
-            Some(solver) => {
-                let solution = solver.solve();
-                (
-                    Arc::new(solution.coefficients),
-                    solution.condition_number,
-                    solution.alpha,
-                    solver.basis().components(),
-                    Some(solver.basis().clone()),
-                )
-            }
-            None => (self.last_coefficients.clone(), 0.0, 0.0, 0, None),
-        };
+        let (coefficients, reference, condition_number, alpha, components, basis) =
+            match &self.solver {
+                Some(solver) => {
+                    let solution = solver.solve();
+                    (
+                        Arc::new(solution.coefficients),
+                        solution.reference,
+                        solution.condition_number,
+                        solution.alpha,
+                        solver.basis().components(),
+                        Some(solver.basis().clone()),
+                    )
+                }
+                None => (
+                    self.last_coefficients.clone(),
+                    self.last_reference.clone(),
+                    0.0,
+                    0.0,
+                    0,
+                    None,
+                ),
+            };
         self.version += 1;
         self.last_coefficients = coefficients.clone();
+        self.last_reference = reference.clone();
         self.last_stats = SolveStats {
             samples: self.sparse.sample_count(),
             observed_bins: self.sparse.observed_count(),
@@ -745,6 +777,7 @@ impl WorkerState {
             version: self.version,
             basis,
             coefficients,
+            reference,
             stats: self.last_stats,
             oldest_input,
             prior_mean: self
@@ -797,13 +830,12 @@ enum Job {
         view: ViewId,
         version: u64,
         gbuffer: Arc<GBuffer>,
-        basis: Arc<Basis>,
-        coefficients: Arc<Vec<[f64; 3]>>,
+        reconstruction: Reconstruction,
     },
     Uncertainty {
         version: u64,
         solver: Box<Solver>,
-        coefficients: Arc<Vec<[f64; 3]>>,
+        reconstruction: Reconstruction,
     },
     Rank {
         request: u64,
@@ -867,10 +899,9 @@ fn run_job(job: Job) -> Analysis {
             view,
             version,
             gbuffer,
-            basis,
-            coefficients,
+            reconstruction,
         } => {
-            let table = Reconstruction::new(basis, &coefficients).materialize();
+            let table = reconstruction.materialize();
             Analysis::Prediction {
                 view,
                 version,
@@ -881,9 +912,8 @@ fn run_job(job: Job) -> Analysis {
         Job::Uncertainty {
             version,
             solver,
-            coefficients,
+            reconstruction,
         } => {
-            let reconstruction = Reconstruction::new(solver.basis().clone(), &coefficients);
             let table = solver.posterior().table_std_dev(&reconstruction);
             // Every channel's deviation is the same mapped-domain deviation times that
             // channel's slope, so the luminance's deviation is their weighted sum.

@@ -72,6 +72,7 @@ impl PreviewState {
                 }
                 if coefficients_changed && snapshot.basis.is_some() {
                     renderer.set_coefficients(&snapshot.coefficients)?;
+                    renderer.set_fitted_reference(snapshot.reference.as_ref())?;
                 }
                 if let (true, Some((_, object))) = (object_changed, &object) {
                     renderer.set_object(object)?;

@@ -331,9 +331,5 @@ fn reference_controls(app: &mut BurnishApp, ui: &mut egui::Ui) {
 }
 
 fn current_reconstruction(app: &BurnishApp) -> Option<Reconstruction> {
-    let snapshot = &app.doc.snapshot();
-    let basis = snapshot.basis.clone()?;
-    let (n, k) = (snapshot.coefficients.len(), basis.components());
-    (n == k || n == crate::solver::BANDS * k)
-        .then(|| Reconstruction::new(basis, &snapshot.coefficients))
+    app.doc.snapshot().reconstruction()
 }

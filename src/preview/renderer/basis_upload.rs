@@ -1,12 +1,14 @@
-//! Uploading a basis (once per basis) and the reconstruction's coefficients (per snapshot).
+//! Uploading a basis (once per basis), the reconstruction's coefficients (per snapshot) and a
+//! fitted reference's offsets (per fit).
 
 use super::{GpuBasis, PreviewRenderer, allocate, buffer_entry, check_fits};
 use crate::basis::{Basis, MAP_EPSILON, RANGE_MARGIN, cos_weight_polar};
 use crate::preview::PreviewError;
-use crate::solver::{BANDS, pair_bands};
+use crate::solver::{BANDS, FittedReference, pair_bands};
 use crate::table::{PAIRS, THETA_BINS};
 use half::f16;
 use rayon::prelude::*;
+use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 /// Invocations per workgroup of the reconstruction pass (shaders/reconstruct.wgsl).
@@ -42,7 +44,8 @@ fn component_scale(rows: &[f32]) -> Result<f32, PreviewError> {
 
 impl PreviewRenderer {
     /// Uploads a basis (once per basis): its components as f16 pairs, and per pair the
-    /// reference, mean and mapped range. The coefficients start at zero (the mean material).
+    /// reference, mean and mapped range. The coefficients start at zero (the mean material),
+    /// measured from the basis's mean (no fitted reference).
     pub fn set_basis(&mut self, basis: &Basis) -> Result<(), PreviewError> {
         let k = basis.components();
         if k == 0 {
@@ -55,10 +58,14 @@ impl PreviewRenderer {
             &format!("a basis of K = {k} components (f16, {row_words} words per pair)"),
             rows_bytes,
         )?;
+        // Per pair one vec4 of the map's constants, then (after all of them) one vec4 of a
+        // fitted reference's offsets: the pass already binds the most storage buffers a
+        // stage may have by default (8), so the offsets share the ranges' buffer.
+        let ranges_bytes = (2 * PAIRS * 16) as u64;
         check_fits(
             &self.limits,
-            "the basis's per-pair ranges",
-            (PAIRS * 16) as u64,
+            "the basis's per-pair ranges and offsets",
+            ranges_bytes,
         )?;
         let rows = basis.rows();
         let scale = component_scale(rows)?;
@@ -79,7 +86,7 @@ impl PreviewRenderer {
         let (rows_buffer, ranges, coefficients, output) = allocate(device, || {
             (
                 buffer("preview basis components", rows_bytes, usage),
-                buffer("preview basis ranges", (PAIRS * 16) as u64, usage),
+                buffer("preview basis ranges", ranges_bytes, usage),
                 buffer("preview coefficients", coefficient_bytes, usage),
                 buffer(
                     "preview reconstruction",
@@ -223,9 +230,12 @@ impl PreviewRenderer {
         });
         self.queue
             .write_buffer(&coefficients, 0, &vec![0u8; coefficient_bytes as usize]);
+        // A new buffer reads as zeros (wgpu clears it): offsets of no fitted reference.
         self.basis = Some(GpuBasis {
             components: k,
             scale,
+            ranges,
+            fitted: None,
             coefficients,
             output,
             bind_group,
@@ -282,6 +292,48 @@ impl PreviewRenderer {
             .collect();
         self.queue
             .write_buffer(&basis.coefficients, 0, bytemuck::cast_slice(&packed));
+        self.reconstruction_stale = true;
+        self.values_generation += 1;
+        Ok(())
+    }
+
+    /// The fitted reference the coefficients are measured from (`None`: the basis's mean), as
+    /// [`crate::solver::Reconstruction::with_reference`] takes it. Its offsets (16 MB) are
+    /// uploaded only when the reference is another one than the GPU holds: once per fit.
+    pub fn set_fitted_reference(
+        &mut self,
+        reference: Option<&Arc<FittedReference>>,
+    ) -> Result<(), PreviewError> {
+        let basis = self.basis.as_mut().ok_or(PreviewError::Missing(
+            "set a basis before a fitted reference",
+        ))?;
+        let same = match (&basis.fitted, reference) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if same {
+            return Ok(());
+        }
+        let mut packed = Vec::with_capacity(UPLOAD_CHUNK_PAIRS);
+        for start in (0..PAIRS).step_by(UPLOAD_CHUNK_PAIRS) {
+            let end = (start + UPLOAD_CHUNK_PAIRS).min(PAIRS);
+            packed.clear();
+            match reference {
+                Some(r) => packed.extend(
+                    r.offsets()[start..end]
+                        .iter()
+                        .map(|o| [o[0], o[1], o[2], 0.0]),
+                ),
+                None => packed.resize(end - start, [0f32; 4]),
+            }
+            self.queue.write_buffer(
+                &basis.ranges,
+                ((PAIRS + start) * 16) as u64,
+                bytemuck::cast_slice(&packed),
+            );
+        }
+        basis.fitted = reference.cloned();
         self.reconstruction_stale = true;
         self.values_generation += 1;
         Ok(())

@@ -61,6 +61,10 @@ struct GpuBasis {
     components: usize,
     /// Components were stored multiplied by this power of two (see [`component_scale`]).
     scale: f32,
+    /// Per pair the map's constants, then per pair a fitted reference's offsets.
+    ranges: wgpu::Buffer,
+    /// The fitted reference whose offsets `ranges` holds (`None`: zeros).
+    fitted: Option<std::sync::Arc<crate::solver::FittedReference>>,
     coefficients: wgpu::Buffer,
     /// ρ per pair, 3 floats each, written by the reconstruction pass.
     output: wgpu::Buffer,

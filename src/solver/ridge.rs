@@ -703,24 +703,11 @@ impl Solver {
         correlations: impl IntoIterator<Item = f64>,
     ) -> Vec<(f64, f64)> {
         let d = self.dimension();
-        let k = self.basis.components();
         let mut rhs = vec![[0.0; 3]; d];
         let mut yty = [0.0; 3];
         for (&pair, obs) in &self.observed {
             let y = centred_from(&self.basis, reference, pair, obs.rho);
-            for (j, phi) in obs.band.pairs() {
-                if phi == 0.0 {
-                    continue;
-                }
-                for (i, u) in obs.row.iter().enumerate() {
-                    for c in 0..3 {
-                        rhs[j * k + i][c] += obs.weight * phi * u * y[c];
-                    }
-                }
-            }
-            for c in 0..3 {
-                yty[c] += obs.weight * y[c] * y[c];
-            }
+            accumulate_measurement(&mut rhs, &mut yty, obs, y, obs.weight);
         }
         let r = Mat::<f64>::from_fn(d, 3, |i, c| rhs[i][c]);
         self.evidence_of(alpha, r, yty, correlations)
@@ -1063,17 +1050,35 @@ fn accumulate(
                 }
             }
         }
+    }
+    accumulate_measurement(rhs, yty, obs, obs.y, w);
+    *weight_sum += w;
+}
+
+/// Adds one observation's w·ψy and w·y² for the measurement `y` (its own `y`, or the same bin
+/// measured from another reference).
+fn accumulate_measurement(
+    rhs: &mut [[f64; 3]],
+    yty: &mut [f64; 3],
+    obs: &Observed,
+    y: [f64; 3],
+    w: f64,
+) {
+    let k = obs.row.len();
+    for (ja, pa) in obs.band.pairs() {
+        if pa == 0.0 {
+            continue;
+        }
         for i in 0..k {
             let wu = w * pa * obs.row[i];
             for c in 0..3 {
-                rhs[ja * k + i][c] += wu * obs.y[c];
+                rhs[ja * k + i][c] += wu * y[c];
             }
         }
     }
     for c in 0..3 {
-        yty[c] += w * obs.y[c] * obs.y[c];
+        yty[c] += w * y[c] * y[c];
     }
-    *weight_sum += w;
 }
 
 /// Prior standard deviation per component, floored so that a degenerate component

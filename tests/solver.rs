@@ -330,13 +330,14 @@ fn a_black_ldr_bound_counts_as_a_value_and_a_wide_bound_stays_one() {
     );
 }
 
-/// Clipped bins under the three treatments a calibration can choose: omitted, they leave
-/// the solve as if never painted; as bounds with no step, they are values at the clip; with
-/// steps, the fit may rise above the clip where the rest of the painting asks for it, and
-/// never falls below it by more than it did as a value.
+/// Clipped bins under the treatments a calibration can choose: omitted, they leave the solve
+/// as if never painted; as bounds, they count at the prior's prediction where it meets the
+/// bound and at the clip elsewhere, and the bounded steps then let the fit rise above the
+/// clip where the rest of the painting asks for it: it never falls below the clip by more
+/// than it would if the clip were a painted value.
 #[test]
 fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
-    use burnish::solver::{Bound, Censoring, PriorModel};
+    use burnish::solver::{Bound, Bounds, Censoring, EXACT, PriorModel};
     let basis = small_basis(8);
     let lit = lit_lambert_sphere();
     // A highlight the paint clipped: far brighter than the Lambertian rest, so only a bound.
@@ -344,31 +345,34 @@ fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
         .map(|t| burnish::table::pair_index(t * 36 + 3, t * 36 + 21))
         .collect();
     let clip = 0.4;
-    let solve = |censoring: Censoring, with_clipped: bool| {
+    let solve = |censoring: Censoring, clipped_bounds: Option<Bounds>| {
         let model = PriorModel {
             censoring,
             ..PriorModel::CALIBRATED
         };
         let mut solver = Solver::with_model(basis.clone(), Regularization::Auto, model);
         solver.apply_all(&lit);
-        if with_clipped {
+        if let Some(bounds) = clipped_bounds {
             for &pair in &clipped {
-                solver.apply(&BinChange::observed(pair, [clip; 3], [Bound::AtLeast; 3]));
+                solver.apply(&BinChange::observed(pair, [clip; 3], bounds));
             }
         }
         let observed = solver.observed_bins();
         let solution = solver.solve();
         (observed, solution.reconstruction(basis.clone()))
     };
-    let (unclipped_bins, unclipped) = solve(Censoring::OmitClipped, false);
-    let (omitted_bins, omitted) = solve(Censoring::OmitClipped, true);
+    let at_least = Some([Bound::AtLeast; 3]);
+    let (unclipped_bins, unclipped) = solve(Censoring::OmitClipped, None);
+    let (omitted_bins, omitted) = solve(Censoring::OmitClipped, at_least);
     assert_eq!(omitted_bins, unclipped_bins);
     for &pair in &clipped {
         assert_eq!(omitted.eval_pair(pair), unclipped.eval_pair(pair));
     }
-    let (kept_bins, at_clip) = solve(Censoring::Bounds { steps: 0 }, true);
+    let (valued_bins, at_clip) = solve(Censoring::Bounds { steps: 200 }, Some(EXACT));
+    let (kept_bins, unstepped) = solve(Censoring::Bounds { steps: 0 }, at_least);
     assert_eq!(kept_bins, unclipped_bins + clipped.len());
-    let (_, bounded) = solve(Censoring::Bounds { steps: 200 }, true);
+    assert_eq!(valued_bins, kept_bins);
+    let (_, bounded) = solve(Censoring::Bounds { steps: 200 }, at_least);
     let mean_shortfall = |r: &Reconstruction| {
         clipped
             .iter()
@@ -385,7 +389,7 @@ fn clipped_bins_are_omitted_taken_at_the_clip_or_bounded_as_the_model_says() {
     assert!(
         clipped
             .iter()
-            .any(|&p| (bounded.eval_pair(p)[1] - at_clip.eval_pair(p)[1]).abs() > 1e-6),
+            .any(|&p| (bounded.eval_pair(p)[1] - unstepped.eval_pair(p)[1]).abs() > 1e-6),
         "200 steps changed nothing"
     );
 }

@@ -57,8 +57,10 @@
 //! alone, never on the order they were painted in).
 //!
 //! **Censored bins** (clipped LDR paint) are bounds, solved for by majorise–minimise (at most
-//! [`Censoring::CALIBRATED`] steps). An upper bound that maps to a narrow interval (a black 8-bit pixel)
-//! counts as a value instead (`Solver::pin_narrow_bounds`).
+//! [`Censoring::CALIBRATED`] steps). A bound the prior's own prediction meets is held at that
+//! prediction, not at the clip, so that neither the solve nor the evidence for a fitted
+//! reference is pulled down to a value the paint never gave. An upper bound that maps to a
+//! narrow interval (a black 8-bit pixel) counts as a value instead (`Solver::pin_narrow_bounds`).
 
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
@@ -294,7 +296,7 @@ impl Solver {
     fn recentre(&mut self) {
         let mut observed = std::mem::take(&mut self.observed);
         for (&pair, obs) in observed.iter_mut() {
-            obs.y = self.centred(pair, obs.rho);
+            obs.y = self.measured(pair, obs.rho, obs.bounds, &obs.row);
         }
         self.observed = observed;
         self.rebuild();
@@ -396,6 +398,26 @@ impl Solver {
         centred_from(&self.basis, self.reference().map(|r| &**r), pair, rho)
     }
 
+    /// y of a bin as the normal equations hold it: [`Self::centred`], except that a bound
+    /// the prior's own prediction (`row`'s) already meets counts at that prediction, not at
+    /// the bound. Clipped paint says "at least this bright"; a reference that is brighter
+    /// agrees with it, and measuring it at the clip level would pull every solve (and the
+    /// evidence for the reference) down to a value the paint never said. The bounded solve
+    /// starts from there and moves only where the bound is broken.
+    fn measured(&self, pair: PairIndex, rho: [f64; 3], bounds: Bounds, row: &[f64]) -> [f64; 3] {
+        let y = self.centred(pair, rho);
+        if bounds == EXACT {
+            return y;
+        }
+        let prediction: [f64; 3] = match &self.prior_mean {
+            None => [0.0; 3],
+            Some(mean) => {
+                std::array::from_fn(|c| row.iter().zip(mean).map(|(u, m)| u * m[c]).sum())
+            }
+        };
+        at_prediction_where_allowed(y, bounds, prediction)
+    }
+
     /// Multiplicity × the rounded brightness weight of a bin of brightness `brightness`.
     fn weight_of(&self, pair: PairIndex, brightness: f64) -> f64 {
         let m = crate::table::pair_multiplicity(pair);
@@ -430,7 +452,15 @@ impl Solver {
         }
         match after {
             Some(rho) => {
-                let y = self.centred(pair, rho);
+                let y = match self.observed.get(&pair) {
+                    Some(obs) => self.measured(pair, rho, bounds, &obs.row),
+                    None if bounds == EXACT => self.centred(pair, rho),
+                    None => {
+                        let row: Vec<f64> =
+                            self.basis.row(pair).iter().map(|&u| u as f64).collect();
+                        self.measured(pair, rho, bounds, &row)
+                    }
+                };
                 let brightness = bin_brightness(pair, rho);
                 let weight = self.weight_of(pair, brightness);
                 if let Some(mut obs) = self.observed.remove(&pair) {
@@ -707,6 +737,7 @@ impl Solver {
         let mut yty = [0.0; 3];
         for (&pair, obs) in &self.observed {
             let y = centred_from(&self.basis, reference, pair, obs.rho);
+            let y = at_prediction_where_allowed(y, obs.bounds, [0.0; 3]);
             accumulate_measurement(&mut rhs, &mut yty, obs, y, obs.weight);
         }
         let r = Mat::<f64>::from_fn(d, 3, |i, c| rhs[i][c]);
@@ -900,10 +931,21 @@ impl Solver {
             return;
         }
         let k = self.basis.components();
+        // The bounds themselves; the normal equations hold each bin at its prior's prediction
+        // where that meets the bound (`Self::measured`).
+        let censored: Vec<(&Observed, [f64; 3])> = self
+            .censored
+            .iter()
+            .map(|pair| {
+                (
+                    &self.observed[pair],
+                    self.centred(*pair, self.observed[pair].rho),
+                )
+            })
+            .collect();
         for _ in 0..steps {
             let mut shifted = rhs.clone();
-            for pair in &self.censored {
-                let obs = &self.observed[pair];
+            for &(obs, bound_y) in &censored {
                 let blocks = obs.band.pairs();
                 for c in 0..3 {
                     let bound = obs.bounds[c];
@@ -918,8 +960,8 @@ impl Solver {
                         }
                     }
                     let target = match bound {
-                        Bound::AtLeast => predicted.max(obs.y[c]),
-                        Bound::AtMost => predicted.min(obs.y[c]),
+                        Bound::AtLeast => predicted.max(bound_y[c]),
+                        Bound::AtMost => predicted.min(bound_y[c]),
                         Bound::Exact => obs.y[c],
                     };
                     let shift = obs.weight * (target - obs.y[c]);
@@ -1002,6 +1044,16 @@ impl Solver {
         let t = if score(t) <= best.0 { t } else { best.1 };
         Some(t.exp())
     }
+}
+
+/// A bounded channel's y moved to `prediction` where the bound allows it: max for "at
+/// least", min for "at most"; exact channels keep theirs.
+fn at_prediction_where_allowed(y: [f64; 3], bounds: Bounds, prediction: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|c| match bounds[c] {
+        Bound::Exact => y[c],
+        Bound::AtLeast => y[c].max(prediction[c]),
+        Bound::AtMost => y[c].min(prediction[c]),
+    })
 }
 
 /// y of a bin of value `rho`, measured from `reference` (`None`: the basis's mean).

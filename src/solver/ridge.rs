@@ -296,7 +296,7 @@ impl Solver {
     fn recentre(&mut self) {
         let mut observed = std::mem::take(&mut self.observed);
         for (&pair, obs) in observed.iter_mut() {
-            obs.y = self.measured(pair, obs.rho, obs.bounds, &obs.row);
+            obs.y = self.measured(pair, obs.rho, obs.bounds);
         }
         self.observed = observed;
         self.rebuild();
@@ -399,12 +399,12 @@ impl Solver {
     }
 
     /// y of a bin as the normal equations hold it: [`Self::centred`], except that a bound
-    /// the prior's own prediction (`row`'s) already meets counts at that prediction, not at
+    /// the prior's own prediction already meets counts at that prediction, not at
     /// the bound. Clipped paint says "at least this bright"; a reference that is brighter
     /// agrees with it, and measuring it at the clip level would pull every solve (and the
     /// evidence for the reference) down to a value the paint never said. The bounded solve
     /// starts from there and moves only where the bound is broken.
-    fn measured(&self, pair: PairIndex, rho: [f64; 3], bounds: Bounds, row: &[f64]) -> [f64; 3] {
+    fn measured(&self, pair: PairIndex, rho: [f64; 3], bounds: Bounds) -> [f64; 3] {
         let y = self.centred(pair, rho);
         if bounds == EXACT {
             return y;
@@ -412,7 +412,8 @@ impl Solver {
         let prediction: [f64; 3] = match &self.prior_mean {
             None => [0.0; 3],
             Some(mean) => {
-                std::array::from_fn(|c| row.iter().zip(mean).map(|(u, m)| u * m[c]).sum())
+                let row = self.basis.row(pair);
+                std::array::from_fn(|c| row.iter().zip(mean).map(|(&u, m)| u as f64 * m[c]).sum())
             }
         };
         at_prediction_where_allowed(y, bounds, prediction)
@@ -452,15 +453,7 @@ impl Solver {
         }
         match after {
             Some(rho) => {
-                let y = match self.observed.get(&pair) {
-                    Some(obs) => self.measured(pair, rho, bounds, &obs.row),
-                    None if bounds == EXACT => self.centred(pair, rho),
-                    None => {
-                        let row: Vec<f64> =
-                            self.basis.row(pair).iter().map(|&u| u as f64).collect();
-                        self.measured(pair, rho, bounds, &row)
-                    }
-                };
+                let y = self.measured(pair, rho, bounds);
                 let brightness = bin_brightness(pair, rho);
                 let weight = self.weight_of(pair, brightness);
                 if let Some(mut obs) = self.observed.remove(&pair) {

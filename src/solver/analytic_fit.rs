@@ -11,13 +11,15 @@
 use super::sparse::{Bound, Bounds, EXACT};
 use crate::basis::{MAP_EPSILON, cos_weight};
 use crate::materials::Brdf;
-use crate::materials::models::{Distribution, Fresnel, Lambert, Microfacet};
+use crate::materials::models::{
+    Distribution, Fresnel, Lambert, Microfacet, above, cos_half_difference, schlick,
+};
 use crate::table::{PairIndex, bin_centre, pair_directions, pair_multiplicity};
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 use glam::DVec3;
 use rayon::prelude::*;
-use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4};
 
 /// Lambertian albedo plus an anisotropic GGX lobe with Schlick Fresnel, weighted.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +55,27 @@ impl LambertGgx {
                 tint: [self.specular; 3],
             },
         )
+    }
+}
+
+impl LambertGgx {
+    /// ρ from the lobe's D·G/(4 cos θ_l cos θ_v) (`dg`, as [`Microfacet::eval_unit_fresnel`]
+    /// gives it) and the half-difference cosine: the same operations, in the same order, as
+    /// [`Brdf::eval`], so the fit can reuse one `dg` across every parameter but the lobe's
+    /// shape and still get [`Brdf::eval`]'s bits.
+    #[inline]
+    fn eval_from_lobe(&self, visible: bool, dg: f64, cos_d: f64) -> [f64; 3] {
+        if !visible {
+            return [0.0; 3];
+        }
+        std::array::from_fn(|c| {
+            let specular = if dg == 0.0 {
+                0.0
+            } else {
+                self.specular * schlick(self.f0[c], cos_d) * dg
+            };
+            self.albedo[c] * FRAC_1_PI + specular
+        })
     }
 }
 
@@ -292,7 +315,12 @@ const CHUNK: usize = 512;
 /// the side its bound allows.
 #[inline]
 fn residuals(model: &LambertGgx, o: &Observation) -> [f64; 3] {
-    let rho = model.eval(o.l, o.v);
+    residuals_of(model.eval(o.l, o.v), o)
+}
+
+/// [`residuals`] of a given ρ.
+#[inline]
+fn residuals_of(rho: [f64; 3], o: &Observation) -> [f64; 3] {
     std::array::from_fn(|ch| {
         let r = (rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch];
         let r = match o.bounds[ch] {
@@ -320,18 +348,26 @@ fn cost(observations: &[Observation], theta: &[f64; P]) -> f64 {
 }
 
 /// JᵀJ, Jᵀr and ½‖r‖² at `theta`, with a forward-difference Jacobian, summed in chunk order.
+/// Only the lobe's shape (the two roughnesses and the turn) changes D·G, so a bin evaluates it
+/// four times (at `theta` and those three steps) rather than once per parameter; every
+/// stepped ρ is still the bits [`Brdf::eval`] would give.
 fn normal_equations(
     observations: &[Observation],
     theta: &[f64; P],
 ) -> ([f64; P * P], [f64; P], f64) {
     const STEP: f64 = 1e-6;
+    /// The parameters D·G depends on.
+    const SHAPE: [usize; 3] = [6, 7, 8];
     let base = model_of(theta);
-    let perturbed: Vec<(LambertGgx, f64)> = (0..P)
+    let lobe = base.parts().1;
+    let perturbed: Vec<(LambertGgx, Option<Microfacet>, f64)> = (0..P)
         .map(|j| {
             let mut t = *theta;
             let h = STEP * theta[j].abs().max(1.0);
             t[j] += h;
-            (model_of(&t), t[j] - theta[j])
+            let model = model_of(&t);
+            let lobe = SHAPE.contains(&j).then(|| model.parts().1);
+            (model, lobe, t[j] - theta[j])
         })
         .collect();
     let partials: Vec<([f64; P * P], [f64; P], f64)> = observations
@@ -341,10 +377,16 @@ fn normal_equations(
             let mut jtr = [0.0; P];
             let mut sum = 0.0;
             for o in chunk {
-                let r = residuals(&base, o);
+                let visible = above(o.l, o.v);
+                let cos_d = cos_half_difference(o.l, o.v);
+                let dg = lobe.eval_unit_fresnel(o.l, o.v);
+                let r = residuals_of(base.eval_from_lobe(visible, dg, cos_d), o);
                 let mut jac = [[0.0; P]; 3];
-                for (j, (model, h)) in perturbed.iter().enumerate() {
-                    let rp = residuals(model, o);
+                for (j, (model, moved_lobe, h)) in perturbed.iter().enumerate() {
+                    let dg = moved_lobe
+                        .as_ref()
+                        .map_or(dg, |moved| moved.eval_unit_fresnel(o.l, o.v));
+                    let rp = residuals_of(model.eval_from_lobe(visible, dg, cos_d), o);
                     for ch in 0..3 {
                         jac[ch][j] = (rp[ch] - r[ch]) / h;
                     }
@@ -436,6 +478,53 @@ fn levenberg_marquardt(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fit's Jacobian reuses D·G through `eval_from_lobe`; it must be `eval` to the bit,
+    /// or the fit would step on a different surface from the one it scores.
+    #[test]
+    fn evaluation_from_the_lobe_is_eval_to_the_bit() {
+        use crate::table::PAIRS;
+        let models = [
+            LambertGgx {
+                albedo: [0.2, 0.5, 0.9],
+                f0: [0.04, 0.3, 0.95],
+                alpha_x: 0.02,
+                alpha_y: 1.2,
+                rotation: 0.7,
+                specular: 0.3,
+            },
+            LambertGgx {
+                albedo: [0.0; 3],
+                f0: [0.9; 3],
+                alpha_x: 0.01,
+                alpha_y: 0.01,
+                rotation: 0.0,
+                specular: 1.0,
+            },
+        ];
+        for model in models {
+            let lobe = model.parts().1;
+            for p in (0..PAIRS).step_by(997) {
+                let (lo, hi) = pair_directions(PairIndex::from_index(p));
+                for (l, v) in [
+                    (bin_centre(lo), bin_centre(hi)),
+                    (bin_centre(hi), -bin_centre(lo)),
+                ] {
+                    let from_lobe = model.eval_from_lobe(
+                        above(l, v),
+                        lobe.eval_unit_fresnel(l, v),
+                        cos_half_difference(l, v),
+                    );
+                    let direct = model.eval(l, v);
+                    assert_eq!(
+                        from_lobe.map(f64::to_bits),
+                        direct.map(f64::to_bits),
+                        "{l} {v}"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn parametrisation_round_trips_within_bounds() {

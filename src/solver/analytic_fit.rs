@@ -41,6 +41,8 @@ pub struct LambertGgx {
 }
 
 impl LambertGgx {
+    /// The model as the library's Lambert and microfacet lobe, whose sum [`Brdf::eval`]
+    /// computes through [`Self::eval_from_lobe`].
     fn parts(&self) -> (Lambert, Microfacet) {
         (
             Lambert {
@@ -56,13 +58,10 @@ impl LambertGgx {
             },
         )
     }
-}
 
-impl LambertGgx {
     /// ρ from the lobe's D·G/(4 cos θ_l cos θ_v) (`dg`, as [`Microfacet::eval_unit_fresnel`]
-    /// gives it) and the half-difference cosine: the same operations, in the same order, as
-    /// [`Brdf::eval`], so the fit can reuse one `dg` across every parameter but the lobe's
-    /// shape and still get [`Brdf::eval`]'s bits.
+    /// gives it) and the half-difference cosine. [`Brdf::eval`] is this, so the fit can reuse
+    /// one `dg` across every parameter but the lobe's shape and still step on `eval`'s bits.
     #[inline]
     fn eval_from_lobe(&self, visible: bool, dg: f64, cos_d: f64) -> [f64; 3] {
         if !visible {
@@ -81,9 +80,12 @@ impl LambertGgx {
 
 impl Brdf for LambertGgx {
     fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
-        let (diffuse, specular) = self.parts();
-        let (d, s) = (diffuse.eval(l, v), specular.eval(l, v));
-        [d[0] + s[0], d[1] + s[1], d[2] + s[2]]
+        let lobe = self.parts().1;
+        self.eval_from_lobe(
+            above(l, v),
+            lobe.eval_unit_fresnel(l, v),
+            cos_half_difference(l, v),
+        )
     }
     fn is_isotropic(&self) -> bool {
         self.alpha_x == self.alpha_y
@@ -479,20 +481,23 @@ fn levenberg_marquardt(
 mod tests {
     use super::*;
 
-    /// The fit's Jacobian reuses D·G through `eval_from_lobe`; it must be `eval` to the bit,
-    /// or the fit would step on a different surface from the one it scores.
+    /// Anisotropic, tinted, neither dielectric nor metal.
+    const MIXED: LambertGgx = LambertGgx {
+        albedo: [0.2, 0.5, 0.9],
+        f0: [0.04, 0.3, 0.95],
+        alpha_x: 0.02,
+        alpha_y: 1.2,
+        rotation: 0.7,
+        specular: 0.3,
+    };
+
+    /// `eval` (through `eval_from_lobe`, which the fit's Jacobian reuses) is the library's
+    /// Lambert plus microfacet lobe to the bit, above and below the horizon.
     #[test]
-    fn evaluation_from_the_lobe_is_eval_to_the_bit() {
+    fn evaluation_is_lambert_plus_the_library_lobe_to_the_bit() {
         use crate::table::PAIRS;
         let models = [
-            LambertGgx {
-                albedo: [0.2, 0.5, 0.9],
-                f0: [0.04, 0.3, 0.95],
-                alpha_x: 0.02,
-                alpha_y: 1.2,
-                rotation: 0.7,
-                specular: 0.3,
-            },
+            MIXED,
             LambertGgx {
                 albedo: [0.0; 3],
                 f0: [0.9; 3],
@@ -503,22 +508,18 @@ mod tests {
             },
         ];
         for model in models {
-            let lobe = model.parts().1;
+            let (diffuse, lobe) = model.parts();
             for p in (0..PAIRS).step_by(997) {
                 let (lo, hi) = pair_directions(PairIndex::from_index(p));
                 for (l, v) in [
                     (bin_centre(lo), bin_centre(hi)),
                     (bin_centre(hi), -bin_centre(lo)),
                 ] {
-                    let from_lobe = model.eval_from_lobe(
-                        above(l, v),
-                        lobe.eval_unit_fresnel(l, v),
-                        cos_half_difference(l, v),
-                    );
-                    let direct = model.eval(l, v);
+                    let (d, s) = (diffuse.eval(l, v), lobe.eval(l, v));
+                    let composed = [d[0] + s[0], d[1] + s[1], d[2] + s[2]];
                     assert_eq!(
-                        from_lobe.map(f64::to_bits),
-                        direct.map(f64::to_bits),
+                        model.eval(l, v).map(f64::to_bits),
+                        composed.map(f64::to_bits),
                         "{l} {v}"
                     );
                 }
@@ -528,14 +529,7 @@ mod tests {
 
     #[test]
     fn parametrisation_round_trips_within_bounds() {
-        let model = LambertGgx {
-            albedo: [0.2, 0.5, 0.9],
-            f0: [0.04, 0.3, 0.95],
-            alpha_x: 0.02,
-            alpha_y: 1.2,
-            rotation: 0.7,
-            specular: 0.3,
-        };
+        let model = MIXED;
         let back = model_of(&params_of(&model));
         for c in 0..3 {
             assert!((back.albedo[c] - model.albedo[c]).abs() < 1e-9);

@@ -114,3 +114,46 @@ impl OracleProjector {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::{BasisSpec, build_basis};
+    use crate::materials::database::DatabaseSpec;
+    use crate::solver::Reconstruction;
+
+    /// A table the basis holds projects back onto the coefficients that made it (to within
+    /// the table's f32 rounding), and the mean material onto zeros.
+    #[test]
+    fn a_table_in_the_basis_projects_back_onto_its_coefficients() {
+        let spec = BasisSpec {
+            database: DatabaseSpec { seed: 11, size: 20 },
+            components: 4,
+            oversampling: 4,
+            power_iterations: 2,
+        };
+        let basis = Arc::new(build_basis(&spec, &|_| {}));
+        let projector = OracleProjector::new(basis.clone());
+        let scale: Vec<f64> = basis.variances().iter().map(|v| 0.2 * v.sqrt()).collect();
+        let x: Vec<[f64; 3]> = scale
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| [s, -0.5 * s, if i % 2 == 0 { 0.8 * s } else { -s }])
+            .collect();
+        let table = Reconstruction::new(basis.clone(), &x).materialize();
+        let back = projector.project(&table);
+        assert_eq!(back.len(), x.len());
+        for (i, (b, t)) in back.iter().zip(&x).enumerate() {
+            for c in 0..3 {
+                assert!(
+                    (b[c] - t[c]).abs() <= 1e-3 * scale[i],
+                    "{i} {c}: {b:?} {t:?}"
+                );
+            }
+        }
+        let mean = Reconstruction::mean_material(basis.clone()).materialize();
+        for b in projector.project(&mean) {
+            assert!(b.iter().all(|v| v.abs() <= 1e-3 * scale[0]), "{b:?}");
+        }
+    }
+}

@@ -584,6 +584,15 @@ fn build(
     Basis::from_owned(k, n, variances, residual_variance, data)
 }
 
+/// A basis the library tests build in a second: K = 4 over 20 materials.
+#[cfg(test)]
+pub(crate) const SMALL_TEST_SPEC: BasisSpec = BasisSpec {
+    database: DatabaseSpec { seed: 11, size: 20 },
+    components: 4,
+    oversampling: 4,
+    power_iterations: 2,
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -591,12 +600,7 @@ mod tests {
     /// Holding the tables between passes changes the cost, never the basis.
     #[test]
     fn a_kept_database_gives_the_streamed_basis_bit_for_bit() {
-        let spec = BasisSpec {
-            database: DatabaseSpec { seed: 11, size: 20 },
-            components: 4,
-            oversampling: 4,
-            power_iterations: 2,
-        };
+        let spec = SMALL_TEST_SPEC;
         let seed = spec.database.seed;
         let source = move |i: usize| material(seed, i).brdf;
         let streamed = build(&source, &spec, &|_| {}, false);

@@ -118,21 +118,15 @@ impl OracleProjector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::basis::{BasisSpec, build_basis};
-    use crate::materials::database::DatabaseSpec;
+    use crate::basis::build::SMALL_TEST_SPEC;
+    use crate::basis::build_basis;
     use crate::solver::Reconstruction;
 
     /// A table the basis holds projects back onto the coefficients that made it (to within
     /// the table's f32 rounding), and the mean material onto zeros.
     #[test]
     fn a_table_in_the_basis_projects_back_onto_its_coefficients() {
-        let spec = BasisSpec {
-            database: DatabaseSpec { seed: 11, size: 20 },
-            components: 4,
-            oversampling: 4,
-            power_iterations: 2,
-        };
-        let basis = Arc::new(build_basis(&spec, &|_| {}));
+        let basis = Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {}));
         let projector = OracleProjector::new(basis.clone());
         let scale: Vec<f64> = basis.variances().iter().map(|v| 0.2 * v.sqrt()).collect();
         let x: Vec<[f64; 3]> = scale

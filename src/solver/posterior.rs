@@ -131,3 +131,104 @@ impl Posterior {
         crate::table::SymTable::from_pairs(values).expect("PAIRS values")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::basis::build::SMALL_TEST_SPEC;
+    use crate::basis::{MAP_EPSILON, build_basis, cos_weight};
+    use crate::solver::{BinChange, EXACT, Regularization, Solver};
+    use crate::table::{PAIRS, PairIndex};
+    use std::sync::Arc;
+
+    /// The posterior's shortcuts against its definition, on a solve of a few hundred bins
+    /// spread over θ_d: a design row splits the basis row between the sets its θ_d blends,
+    /// the mapped variance is ψᵀΣψ, covariance and precision are inverses, and the table of
+    /// standard deviations (which reads only neighbouring blocks of Σ) is the map's slope
+    /// times √(ψᵀΣψ + the basis's residual) at every pair.
+    #[test]
+    fn the_posterior_tables_follow_from_its_covariance() {
+        let basis = Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {}));
+        let k = basis.components();
+        let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+        let painted: Vec<PairIndex> = (0..400)
+            .map(|i| PairIndex::from_index(i * 1_299_709 % PAIRS))
+            .collect();
+        for (i, &pair) in painted.iter().enumerate() {
+            let wobble = 1.0 + 0.2 * ((i % 7) as f64 - 3.0) / 3.0;
+            solver.apply(&BinChange::observed(
+                pair,
+                [0.15 * wobble, 0.25, 0.4 / wobble],
+                EXACT,
+            ));
+        }
+        let solution = solver.solve();
+        let reconstruction = solution.reconstruction(basis.clone());
+        let posterior = solver.posterior();
+        assert_eq!(posterior.alpha(), solution.alpha);
+
+        let (sigma, precision) = (posterior.covariance(), posterior.precision());
+        let d = sigma.nrows();
+        assert_eq!(d, solver.model().rows(k));
+        assert!(d > k, "the calibrated prior has several sets");
+        let identity = precision * sigma;
+        for i in 0..d {
+            for j in 0..d {
+                let expected = if i == j { 1.0 } else { 0.0 };
+                assert!((identity[(i, j)] - expected).abs() < 1e-8, "({i}, {j})");
+            }
+        }
+
+        let sd = posterior.table_std_dev(&reconstruction);
+        let residuals = basis.residuals();
+        let (mut blended, mut variance_sum) = (0, 0.0);
+        for index in (0..PAIRS)
+            .step_by(997)
+            .chain(painted.iter().map(|p| p.index()))
+        {
+            let pair = PairIndex::from_index(index);
+            let row = basis.row(pair);
+            let psi = posterior.design_row(pair, row);
+            assert_eq!(psi.len(), d);
+            let sets: Vec<usize> = (0..d / k)
+                .filter(|&j| psi[j * k..(j + 1) * k].iter().any(|&v| v != 0.0))
+                .collect();
+            assert!(
+                !sets.is_empty() && sets.len() <= 2,
+                "{index}: sets {sets:?}"
+            );
+            if sets.len() == 2 {
+                assert_eq!(sets[1], sets[0] + 1, "{index}: neighbouring sets");
+                blended += 1;
+            }
+            for i in 0..k {
+                let split: f64 = (0..d / k).map(|j| psi[j * k + i]).sum();
+                assert!((split - row[i] as f64).abs() < 1e-6, "{index}, {i}");
+            }
+
+            let direct: f64 = (0..d)
+                .map(|a| psi[a] * (0..d).map(|b| sigma[(a, b)] * psi[b]).sum::<f64>())
+                .sum();
+            let variance = posterior.mapped_variance(pair, row);
+            assert!(
+                (variance - direct).abs() <= 1e-9 * direct.abs().max(1e-12),
+                "{index}: {variance} against ψᵀΣψ {direct}"
+            );
+            variance_sum += variance;
+
+            let sd_mapped = (variance + residuals[index] as f64).sqrt();
+            let c = cos_weight(pair);
+            let rho = reconstruction.eval_pair(pair);
+            for ch in 0..3 {
+                let slope = (rho[ch] as f64 * c + MAP_EPSILON) / c;
+                let expected = slope * sd_mapped;
+                let got = sd.pairs()[index][ch] as f64;
+                assert!(
+                    (got - expected).abs() <= 1e-4 * expected,
+                    "{index} {ch}: {got} against {expected}"
+                );
+            }
+        }
+        assert!(blended > 100, "{blended} pairs blend two sets");
+        assert!(variance_sum > 0.0);
+    }
+}

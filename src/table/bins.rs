@@ -267,4 +267,57 @@ mod tests {
         );
         assert_eq!(PairIndex::try_from(PAIRS), Err(PairOutOfRange(PAIRS)));
     }
+
+    /// What the storage's users lean on beyond the bijection: each pair's weight in the full
+    /// table, the index's conversions, and angles outside a bin's usual range.
+    #[test]
+    fn pairs_weigh_and_convert_as_the_full_table_counts_them() {
+        let (mut total, mut diagonal) = (0.0, 0);
+        for_each_pair(|pair, lo, hi| {
+            let m = pair_multiplicity(pair);
+            assert_eq!(m, if lo == hi { 1.0 } else { 2.0 }, "{pair}");
+            diagonal += usize::from(lo == hi);
+            total += m;
+        });
+        assert_eq!(diagonal, DIRECTIONS);
+        assert_eq!(total, ENTRIES as f64);
+
+        let all: Vec<PairIndex> = PairIndex::all().collect();
+        assert_eq!(all.len(), PAIRS);
+        assert!(all.iter().enumerate().all(|(i, p)| p.index() == i));
+        let pair = PairIndex::from_index(123_456);
+        assert_eq!(pair.get(), 123_456);
+        assert_eq!(usize::from(pair), 123_456);
+        assert_eq!(pair.to_string(), "123456");
+        assert_eq!(PairIndex::try_from(123_456u32), Ok(pair));
+        assert_eq!(
+            PairIndex::try_from(PAIRS as u32),
+            Err(PairOutOfRange(PAIRS))
+        );
+
+        // Polar angles: 1° wide bins, negative and NaN angles in the first, past π/2 the last.
+        assert_eq!(theta_index(0.0), 0);
+        assert_eq!(theta_index(44.5f64.to_radians()), 22);
+        assert_eq!(theta_index(-0.1), 0);
+        assert_eq!(theta_index(f64::NAN), 0);
+        assert_eq!(theta_index(2.0), THETA_BINS - 1);
+        // Azimuths wrap: 10° wide bins over any multiple of 2π; NaN in the first.
+        assert_eq!(phi_index(15f64.to_radians()), 1);
+        assert_eq!(phi_index(15f64.to_radians() - 2.0 * TAU), 1);
+        assert_eq!(phi_index(-15f64.to_radians()), PHI_BINS - 2);
+        assert_eq!(phi_index(f64::NAN), 0);
+        // A direction need not be unit length, and rounding past z = 1 is still the normal.
+        let w = bin_centre(36 * 30 + 7);
+        assert_eq!(direction_index(w * 3.5), Some(36 * 30 + 7));
+        assert_eq!(
+            direction_index(DVec3::new(1e-17, 0.0, 1.0 + 1e-15)),
+            Some(0)
+        );
+        assert_eq!(direction_index(DVec3::new(0.0, 0.0, f64::INFINITY)), None);
+        for d in [0, 36 * 44 + 3, 36 * 20] {
+            let (t, _) = split_direction(d);
+            assert_eq!(cos_theta_centre(d), theta_centre(t).cos());
+            assert!((bin_centre(d).z - cos_theta_centre(d)).abs() < 1e-15);
+        }
+    }
 }

@@ -527,4 +527,137 @@ mod tests {
         assert_eq!(t.observed_count(), 1);
         assert_eq!(t.bin_value(pair_index(1, 2)), None);
     }
+
+    /// A bin's bounds: "at least" as soon as one sample is clipped at the top, "at most" only
+    /// while every sample is clipped at the bottom.
+    #[test]
+    fn a_bins_bounds_follow_its_clipped_samples() {
+        use Bound::{AtLeast, AtMost, Exact};
+        let mut t = SparseTable::default();
+        let mut ch = Vec::new();
+        let pair = pair_index(4, 40);
+        let bounds_now = |t: &SparseTable| t.observed_bounded().next().unwrap().2;
+        t.set_bounded_sample(
+            key(1),
+            4,
+            40,
+            [1.0, 0.5, 0.0],
+            [AtLeast, Exact, AtMost],
+            &mut ch,
+        )
+        .unwrap();
+        assert_eq!(bounds_now(&t), [AtLeast, Exact, AtMost]);
+        assert_eq!(ch.last().unwrap().bounds, [AtLeast, Exact, AtMost]);
+        t.set_bounded_sample(
+            key(2),
+            40,
+            4,
+            [0.6, 0.5, 0.0],
+            [Exact, AtLeast, AtMost],
+            &mut ch,
+        )
+        .unwrap();
+        assert_eq!(bounds_now(&t), [AtLeast, AtLeast, AtMost]);
+        t.set_sample(key(3), 4, 40, [0.8, 0.5, 0.01], &mut ch)
+            .unwrap();
+        assert_eq!(bounds_now(&t), [AtLeast, AtLeast, Exact]);
+        assert_eq!(t.samples_in(pair), 3);
+        t.remove_sample(key(1), &mut ch);
+        t.remove_sample(key(2), &mut ch);
+        assert_eq!(bounds_now(&t), EXACT);
+        t.remove_sample(key(3), &mut ch);
+        assert_eq!(ch.last().unwrap().bounds, EXACT, "an emptied bin");
+        assert_eq!(t.samples_in(pair), 0);
+    }
+
+    /// Min and Max pick by luminance (Rec. 709 weights), ties to the first key; a zero is
+    /// stored as +0.
+    #[test]
+    fn min_and_max_pick_by_luminance() {
+        let mut ch = Vec::new();
+        let mut t = SparseTable::new(Policy::Max);
+        // Red 1.0 is darker (0.2126) than green 0.5 (0.3576).
+        t.set_sample(key(1), 2, 3, [1.0, 0.0, 0.0], &mut ch)
+            .unwrap();
+        t.set_sample(key(2), 2, 3, [0.0, 0.5, 0.0], &mut ch)
+            .unwrap();
+        assert_eq!(t.bin_value(pair_index(2, 3)), Some([0.0, 0.5, 0.0]));
+        t.set_policy(Policy::Min, &mut ch);
+        assert_eq!(t.bin_value(pair_index(2, 3)), Some([1.0, 0.0, 0.0]));
+        // Equal luminance: the smaller key wins, whichever came first.
+        let blue = 0.7152 / 0.0722;
+        t.set_sample(key(9), 7, 7, [0.0, 0.0, blue], &mut ch)
+            .unwrap();
+        t.set_sample(key(8), 7, 7, [0.0, 1.0, 0.0], &mut ch)
+            .unwrap();
+        assert_eq!(t.bin_value(pair_index(7, 7)), Some([0.0, 1.0, 0.0]));
+        t.set_sample(key(5), 8, 8, [-0.0, 0.0, 0.0], &mut ch)
+            .unwrap();
+        let zero = t.bin_value(pair_index(8, 8)).unwrap();
+        assert!(zero.iter().all(|c| c.is_sign_positive()), "{zero:?}");
+    }
+
+    /// The inconsistency factor: samples apart by more are flagged, a change of the factor
+    /// reports each bin that flips (value unchanged), and dark bins compare above a floor.
+    #[test]
+    fn the_inconsistency_factor_flags_and_reports_flips() {
+        let mut t = SparseTable::new(Policy::Mean);
+        let mut ch = Vec::new();
+        t.set_sample(key(1), 1, 5, [1.0; 3], &mut ch).unwrap();
+        t.set_sample(key(2), 1, 5, [1.4; 3], &mut ch).unwrap();
+        let pair = pair_index(1, 5);
+        assert!(!t.is_inconsistent(pair), "1.4 apart under the default 1.5");
+        ch.clear();
+        t.set_inconsistency_ratio(1.2, &mut ch);
+        assert!(t.is_inconsistent(pair));
+        assert_eq!(t.inconsistent_count(), 1);
+        assert_eq!(ch.len(), 1);
+        assert_eq!(
+            (ch[0].before, ch[0].after),
+            (Some([1.2; 3]), Some([1.2; 3]))
+        );
+        assert!(ch[0].inconsistent);
+        ch.clear();
+        t.set_inconsistency_ratio(1.3, &mut ch);
+        assert!(ch.is_empty(), "no bin flips");
+        t.set_inconsistency_ratio(2.0, &mut ch);
+        assert_eq!((t.inconsistent_count(), ch.len()), (0, 1));
+        assert!(!ch[0].inconsistent);
+        // Luminances 0 and 5e-4 are 1.5 apart over the 1e-3 floor; 0 and 1e-3, 2.
+        t.set_inconsistency_ratio(1.5, &mut ch);
+        t.set_sample(key(3), 2, 2, [0.0; 3], &mut ch).unwrap();
+        t.set_sample(key(4), 2, 2, [5e-4; 3], &mut ch).unwrap();
+        assert!(!t.is_inconsistent(pair_index(2, 2)));
+        t.set_sample(key(4), 2, 2, [1e-3; 3], &mut ch).unwrap();
+        assert!(t.is_inconsistent(pair_index(2, 2)));
+        assert_eq!(
+            t.inconsistent_bins().collect::<Vec<_>>(),
+            [pair_index(2, 2)]
+        );
+    }
+
+    /// Removing a view takes its samples out of every bin and leaves the other views'.
+    #[test]
+    fn removing_a_view_leaves_the_others() {
+        let mut t = SparseTable::new(Policy::Mean);
+        let mut ch = Vec::new();
+        let at = |view, pixel| SampleKey { view, pixel };
+        t.set_sample(at(0, 1), 3, 4, [1.0; 3], &mut ch).unwrap();
+        t.set_sample(at(1, 1), 3, 4, [3.0; 3], &mut ch).unwrap();
+        t.set_sample(at(1, 2), 6, 6, [2.0; 3], &mut ch).unwrap();
+        t.set_sample(at(2, 1), 6, 9, [4.0; 3], &mut ch).unwrap();
+        ch.clear();
+        t.remove_view(1, &mut ch);
+        assert_eq!(t.sample_count(), 2);
+        assert_eq!(
+            t.observed().collect::<Vec<_>>(),
+            [(pair_index(3, 4), [1.0; 3]), (pair_index(6, 9), [4.0; 3])]
+        );
+        assert_eq!(ch.len(), 2);
+        assert_eq!(
+            (ch[0].before, ch[0].after),
+            (Some([2.0; 3]), Some([1.0; 3]))
+        );
+        assert_eq!((ch[1].before, ch[1].after), (Some([2.0; 3]), None));
+    }
 }

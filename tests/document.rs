@@ -5,9 +5,10 @@
 mod common;
 
 use burnish::basis::Basis;
-use burnish::document::{Document, DocumentConfig, Event};
-use burnish::paint::BrushSettings;
-use burnish::scene::{PaintRange, Scene, read_painting, samples_from_file, write_png};
+use burnish::document::{Document, DocumentConfig, Event, painting_mask_path};
+use burnish::image_io::RgbImage;
+use burnish::paint::{BrushSettings, UnpaintedPixels};
+use burnish::scene::{PaintRange, Scene, read_painting, samples_from_file, write_image, write_png};
 use burnish::session::BasisSettings;
 use burnish::solver::{Policy, Regularization, Solver, SparseTable};
 use burnish::worker::Snapshot;
@@ -174,4 +175,81 @@ fn a_saved_8_bit_view_reopens_read_the_same_way() {
         worst < 1e-9,
         "the reopened session solves otherwise ({worst})"
     );
+}
+
+/// A painting with the mask `burnish reconstruct --mask` reads beside it imports with only
+/// the marked pixels painted, exports the same mask back, and under "ignore unpainted"
+/// solves as `burnish reconstruct --unpainted ignore --mask` does.
+#[test]
+fn a_painting_imports_with_the_mask_beside_it() {
+    let basis = common::small_basis(8);
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = headless(&basis);
+    doc.add_view(Scene {
+        resolution: RESOLUTION as u32,
+        ..Scene::default()
+    })
+    .unwrap();
+    let guide = dir.path().join("guide.png");
+    doc.export_guide(&guide).unwrap();
+    let mut image = read_painting(&guide, RESOLUTION).unwrap();
+    for p in &mut image.pixels {
+        *p = [p[0] * 1.3, p[1], p[2] * 0.6];
+    }
+    let painting = dir.path().join("painting.exr");
+    write_image(&painting, &image).unwrap();
+    let left = |i: usize| i % RESOLUTION < RESOLUTION / 2;
+    let mask = RgbImage {
+        width: RESOLUTION,
+        height: RESOLUTION,
+        pixels: (0..RESOLUTION * RESOLUTION)
+            .map(|i| if left(i) { [1.0; 3] } else { [0.0; 3] })
+            .collect(),
+    };
+    write_png(painting_mask_path(&painting), &mask).unwrap();
+    doc.take_events();
+    doc.import_painting(&painting).unwrap();
+    let said: Vec<String> = doc
+        .take_events()
+        .into_iter()
+        .filter_map(|e| match e {
+            Event::Notice(n) => Some(n.text),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        said.iter().any(|t| t.contains("painting-mask.png")),
+        "the import names the mask it read: {said:?}"
+    );
+
+    let canvas = doc.views()[0].canvas();
+    let object = canvas.object_mask().to_vec();
+    let expected: Vec<bool> = (0..object.len()).map(|i| object[i] && left(i)).collect();
+    assert!(expected.iter().filter(|&&p| p).count() > 1_000);
+    assert!(expected.iter().zip(object.iter()).any(|(&p, &o)| o && !p));
+    for (i, &c) in canvas.layers().coverage.iter().enumerate() {
+        assert_eq!(c > 0.0, expected[i], "pixel {i}");
+    }
+    let again = dir.path().join("again.exr");
+    doc.export_painting(&again).unwrap();
+    let written = read_painting(painting_mask_path(&again), RESOLUTION).unwrap();
+    for (i, p) in written.pixels.iter().enumerate() {
+        assert_eq!(p[0] > 0.0, expected[i], "exported mask, pixel {i}");
+    }
+
+    doc.set_unpainted(0, UnpaintedPixels::Ignore);
+    let snapshot = synced(&mut doc);
+    let gbuffer = doc.views()[0].gbuffer().clone();
+    let mut set = samples_from_file(&gbuffer, &painting).unwrap();
+    set.samples.retain(|s| left(s.pixel as usize));
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut changes = Vec::new();
+    set.insert_into(0, &mut table, &mut changes).unwrap();
+    let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+    solver.apply_all(&changes);
+    solver.refit_prior_mean();
+    let cli = solver.solve().coefficients;
+    assert_eq!(snapshot.stats.samples, set.samples.len());
+    let worst = relative_difference(&snapshot.coefficients, &cli);
+    assert!(worst < 1e-6, "document and CLI differ by {worst}");
 }

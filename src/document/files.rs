@@ -154,7 +154,10 @@ impl Document {
     }
 
     /// Replaces the active view's painting with an image painted elsewhere (PNG or EXR of
-    /// the guide's size). Every object pixel of the image becomes paint.
+    /// the guide's size). Every object pixel of the image becomes paint, unless a mask of
+    /// what was painted lies beside it ([`painting_mask_path`], as
+    /// [`Self::export_painting`] writes it and `burnish reconstruct --mask` reads it): then
+    /// only its non-black pixels do, and the rest stay unpainted.
     pub fn import_painting(&mut self, path: &Path) -> crate::Result<()> {
         let Some(doc) = self.views.get_mut(self.active) else {
             return Ok(());
@@ -171,7 +174,19 @@ impl Document {
                 "the painting has NaN, infinite or negative pixels",
             ));
         }
-        doc.import_painting(&image)?;
+        let mask_path = painting_mask_path(path);
+        let painted: Option<Vec<bool>> = if mask_path.is_file() {
+            let mask = crate::scene::read_painting(&mask_path, resolution)?;
+            Some(
+                mask.pixels
+                    .iter()
+                    .map(|p| p.iter().any(|&c| c > 0.0))
+                    .collect(),
+            )
+        } else {
+            None
+        };
+        doc.import_painting(&image, painted.as_deref())?;
         // An 8-bit file's clipped channels say "at least this bright", as `burnish
         // reconstruct` reads the same file.
         doc.settings.paint_range = paint_range_of(path);
@@ -179,12 +194,16 @@ impl Document {
         self.worker.send(doc.paint_command());
         self.canvas_revision += 1;
         self.touch();
+        let masked = match &painted {
+            Some(_) => format!(", painted where {} says", mask_path.display()),
+            None => String::new(),
+        };
         self.notify(match range {
             PaintRange::Ldr => format!(
-                "imported {} (8 bits: a clipped channel says \"at least this bright\")",
+                "imported {}{masked} (8 bits: a clipped channel says \"at least this bright\")",
                 path.display()
             ),
-            PaintRange::Hdr => format!("imported {}", path.display()),
+            PaintRange::Hdr => format!("imported {}{masked}", path.display()),
         });
         Ok(())
     }

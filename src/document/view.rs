@@ -189,13 +189,18 @@ impl ViewDoc {
         Ok(())
     }
 
-    /// Replaces the painting with an image painted elsewhere: every object pixel becomes
-    /// paint of the image's colour, as one edit that Ctrl+Z takes back.
-    pub fn import_painting(&mut self, image: &RgbImage) -> crate::Result<()> {
+    /// Replaces the painting with an image painted elsewhere, as one edit that Ctrl+Z takes
+    /// back: every object pixel becomes paint of the image's colour, or, with `painted`
+    /// (one flag per pixel), those it marks; the others stay unpainted over the base.
+    pub fn import_painting(
+        &mut self,
+        image: &RgbImage,
+        painted: Option<&[bool]>,
+    ) -> crate::Result<()> {
         let mask = object_mask(&self.gbuffer);
         let mut layers = PaintLayers::unpainted(self.canvas.base());
         for (i, &inside) in mask.iter().enumerate() {
-            if inside {
+            if inside && painted.is_none_or(|p| p[i]) {
                 layers.colour.pixels[i] = image.pixels[i];
                 layers.coverage[i] = 1.0;
             }

@@ -106,4 +106,54 @@ mod tests {
             );
         }
     }
+
+    /// The edges: the bound on the reported figure, an empty system, a solve that
+    /// overflows, and matrices whose inverse norm the estimate must hit exactly.
+    #[test]
+    fn the_condition_estimate_is_exact_where_it_can_be_and_bounded_everywhere() {
+        assert_eq!(CONDITION_LIMIT, 1.0 / f64::EPSILON);
+        assert_eq!(bounded_condition(f64::NAN), CONDITION_LIMIT);
+        assert_eq!(bounded_condition(f64::INFINITY), CONDITION_LIMIT);
+        assert_eq!(bounded_condition(1e300), CONDITION_LIMIT);
+        assert_eq!(bounded_condition(0.25), 1.0);
+        assert_eq!(bounded_condition(42.0), 42.0);
+
+        assert_eq!(inverse_norm_1_estimate(0, |b| b.clone()), 0.0);
+        let overflow = |b: &Mat<f64>| Mat::<f64>::from_fn(b.nrows(), 1, |_, _| f64::INFINITY);
+        assert_eq!(inverse_norm_1_estimate(3, overflow), f64::INFINITY);
+
+        // Diagonal: ‖M⁻¹‖₁ is the largest 1/m_ii, wherever it sits.
+        for d in [1, 2, 7] {
+            for big in 0..d {
+                let m = Mat::<f64>::from_fn(d, d, |i, j| {
+                    if i != j {
+                        0.0
+                    } else if i == big {
+                        0.01
+                    } else {
+                        1.0 + i as f64
+                    }
+                });
+                let solve = |b: &Mat<f64>| Mat::<f64>::from_fn(d, 1, |i, _| b[(i, 0)] / m[(i, i)]);
+                let estimate = inverse_norm_1_estimate(d, solve);
+                assert!((estimate - 100.0).abs() < 1e-9, "d {d}, {big}: {estimate}");
+                let largest = (0..d).filter(|&i| i != big).map(|i| 1.0 + i as f64);
+                assert_eq!(norm_1(&m), largest.fold(0.01, f64::max));
+            }
+        }
+        // A dense SPD matrix whose inverse has one dominant column: [[2, 1], [1, 1]]⁻¹ =
+        // [[1, −1], [−1, 2]], ‖·‖₁ = 3, and ‖M‖₁ = 3.
+        let m = Mat::<f64>::from_fn(2, 2, |i, j| if i == 0 && j == 0 { 2.0 } else { 1.0 });
+        let inverse = |b: &Mat<f64>| {
+            Mat::<f64>::from_fn(2, 1, |i, _| {
+                if i == 0 {
+                    b[(0, 0)] - b[(1, 0)]
+                } else {
+                    2.0 * b[(1, 0)] - b[(0, 0)]
+                }
+            })
+        };
+        assert_eq!(norm_1(&m), 3.0);
+        assert!((inverse_norm_1_estimate(2, inverse) - 3.0).abs() < 1e-12);
+    }
 }

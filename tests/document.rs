@@ -253,3 +253,32 @@ fn a_painting_imports_with_the_mask_beside_it() {
     let worst = relative_difference(&snapshot.coefficients, &cli);
     assert!(worst < 1e-6, "document and CLI differ by {worst}");
 }
+
+/// A mask beside the painting that does not fit the view refuses the import, names the mask
+/// and leaves the canvas as it was.
+#[test]
+fn a_mask_of_the_wrong_size_refuses_the_import_and_names_the_mask() {
+    let basis = common::small_basis(8);
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = headless(&basis);
+    doc.add_view(Scene {
+        resolution: RESOLUTION as u32,
+        ..Scene::default()
+    })
+    .unwrap();
+    let painting = dir.path().join("painting.png");
+    doc.export_guide(&painting).unwrap();
+    let small = RgbImage {
+        width: 16,
+        height: 16,
+        pixels: vec![[1.0; 3]; 256],
+    };
+    write_png(painting_mask_path(&painting), &small).unwrap();
+    let before = doc.views()[0].canvas().layers().coverage.clone();
+    let error = doc.import_painting(&painting).unwrap_err().to_string();
+    assert!(
+        error.contains("painting-mask.png") && error.contains("16 × 16"),
+        "{error}"
+    );
+    assert_eq!(doc.views()[0].canvas().layers().coverage, before);
+}

@@ -42,6 +42,28 @@ fn synced(doc: &mut Document) -> Arc<Snapshot> {
         .expect("the worker answers")
 }
 
+/// [`headless`] with one default sphere view of [`RESOLUTION`]².
+fn sphere_document(basis: &Arc<Basis>) -> Document {
+    let mut doc = headless(basis);
+    doc.add_view(Scene {
+        resolution: RESOLUTION as u32,
+        ..Scene::default()
+    })
+    .unwrap();
+    doc
+}
+
+/// The texts of the notices the document raised since the last call.
+fn notices(doc: &mut Document) -> Vec<String> {
+    doc.take_events()
+        .into_iter()
+        .filter_map(|e| match e {
+            Event::Notice(n) => Some(n.text),
+            _ => None,
+        })
+        .collect()
+}
+
 /// The default sphere's guide, warmed and brightened "in an external editor" until its lit
 /// side clips, as an 8-bit PNG in `dir`.
 fn clipped_png(doc: &mut Document, dir: &Path) -> std::path::PathBuf {
@@ -65,12 +87,7 @@ fn clipped_png(doc: &mut Document, dir: &Path) -> std::path::PathBuf {
 
 /// A document with one default sphere view into which [`clipped_png`] was imported.
 fn imported_8_bit_view(basis: &Arc<Basis>, dir: &Path) -> (Document, std::path::PathBuf) {
-    let mut doc = headless(basis);
-    doc.add_view(Scene {
-        resolution: RESOLUTION as u32,
-        ..Scene::default()
-    })
-    .unwrap();
+    let mut doc = sphere_document(basis);
     let painting = clipped_png(&mut doc, dir);
     doc.import_painting(&painting).unwrap();
     (doc, painting)
@@ -123,14 +140,7 @@ fn an_8_bit_import_solves_as_burnish_reconstruct_reads_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let (mut doc, painting) = imported_8_bit_view(&basis, dir.path());
     assert_eq!(doc.views()[0].paint_range(), PaintRange::Ldr);
-    let said: Vec<String> = doc
-        .take_events()
-        .into_iter()
-        .filter_map(|e| match e {
-            Event::Notice(n) => Some(n.text),
-            _ => None,
-        })
-        .collect();
+    let said = notices(&mut doc);
     assert!(
         said.iter().any(|t| t.contains("8 bits")),
         "the import says how it reads the file: {said:?}"
@@ -184,12 +194,7 @@ fn a_saved_8_bit_view_reopens_read_the_same_way() {
 fn a_painting_imports_with_the_mask_beside_it() {
     let basis = common::small_basis(8);
     let dir = tempfile::tempdir().unwrap();
-    let mut doc = headless(&basis);
-    doc.add_view(Scene {
-        resolution: RESOLUTION as u32,
-        ..Scene::default()
-    })
-    .unwrap();
+    let mut doc = sphere_document(&basis);
     let guide = dir.path().join("guide.png");
     doc.export_guide(&guide).unwrap();
     let mut image = read_painting(&guide, RESOLUTION).unwrap();
@@ -209,14 +214,7 @@ fn a_painting_imports_with_the_mask_beside_it() {
     write_png(painting_mask_path(&painting), &mask).unwrap();
     doc.take_events();
     doc.import_painting(&painting).unwrap();
-    let said: Vec<String> = doc
-        .take_events()
-        .into_iter()
-        .filter_map(|e| match e {
-            Event::Notice(n) => Some(n.text),
-            _ => None,
-        })
-        .collect();
+    let said = notices(&mut doc);
     assert!(
         said.iter().any(|t| t.contains("painting-mask.png")),
         "the import names the mask it read: {said:?}"
@@ -260,12 +258,7 @@ fn a_painting_imports_with_the_mask_beside_it() {
 fn a_mask_of_the_wrong_size_refuses_the_import_and_names_the_mask() {
     let basis = common::small_basis(8);
     let dir = tempfile::tempdir().unwrap();
-    let mut doc = headless(&basis);
-    doc.add_view(Scene {
-        resolution: RESOLUTION as u32,
-        ..Scene::default()
-    })
-    .unwrap();
+    let mut doc = sphere_document(&basis);
     let painting = dir.path().join("painting.png");
     doc.export_guide(&painting).unwrap();
     let small = RgbImage {

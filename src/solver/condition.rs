@@ -156,4 +156,76 @@ mod tests {
         assert_eq!(norm_1(&m), 3.0);
         assert!((inverse_norm_1_estimate(2, inverse) - 3.0).abs() < 1e-12);
     }
+
+    /// Hager's steps themselves, on symmetric operators chosen so that each step moves the
+    /// estimate (from 7 to 15 to 21 = ‖B‖₁, reached at the second unit vector) and so that
+    /// Higham's alternating vector is what finds the larger figure on a second one. The
+    /// solves are recorded: a change to the stopping tests, the sign vector or the choice of
+    /// column shows as a different sequence, even where the estimate would survive it.
+    #[test]
+    fn the_condition_estimate_takes_hagers_steps() {
+        use std::cell::RefCell;
+        // Applies the symmetric b in place of a solve, recording what it was asked to solve.
+        fn run<const D: usize>(b: &[[f64; D]; D]) -> (f64, Vec<Vec<f64>>) {
+            let solves = RefCell::new(Vec::new());
+            let estimate = inverse_norm_1_estimate(D, |x| {
+                solves
+                    .borrow_mut()
+                    .push((0..D).map(|i| x[(i, 0)]).collect());
+                Mat::<f64>::from_fn(D, 1, |i, _| (0..D).map(|j| b[i][j] * x[(j, 0)]).sum())
+            });
+            (estimate, solves.into_inner())
+        }
+        fn assert_solves<const D: usize>(solves: &[Vec<f64>], expected: &[[f64; D]]) {
+            assert_eq!(solves.len(), expected.len(), "{solves:?}");
+            for (got, want) in solves.iter().zip(expected) {
+                let close = got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-12);
+                assert!(close, "solved {got:?}, expected {want:?}");
+            }
+        }
+        // Column sums of |b|: 16, 21, 15, 16.
+        let b = [
+            [-8.0, -3.0, -3.0, 2.0],
+            [-3.0, 8.0, 5.0, -5.0],
+            [-3.0, 5.0, 6.0, -1.0],
+            [2.0, -5.0, -1.0, 8.0],
+        ];
+        let (estimate, solves) = run(&b);
+        assert_eq!(estimate, 21.0);
+        let expected: [[f64; 4]; 7] = [
+            [0.25; 4],
+            // ‖B x‖₁ = 7; the sign of B x, whose solve points at column 2.
+            [-1.0, 1.0, 1.0, 1.0],
+            [0.0, 0.0, 1.0, 0.0],
+            // Column 2 gives 15, and points at column 1.
+            [-1.0, 1.0, 1.0, -1.0],
+            [0.0, 1.0, 0.0, 0.0],
+            // Column 1 gives 21, and its sign vector's solve gains nothing: stop.
+            [-1.0, 1.0, 1.0, -1.0],
+            // Higham's vector, (−1)^i (1 + i/(d − 1)).
+            [1.0, -4.0 / 3.0, 5.0 / 3.0, -2.0],
+        ];
+        assert_solves(&solves, &expected);
+
+        // Hager stops at 7 (column 0) while ‖B‖₁ is 16; the alternating vector
+        // (1, −1.25, 1.5, −1.75, 2) gives 2 ‖B v‖₁ / 3d = 2 · 60.5 / 15. The second sign
+        // vector is all ones because column 0 has zeros: a zero entry counts as positive.
+        let b = [
+            [6.0, 0.0, 0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0, 4.0, 1.0],
+            [0.0, -1.0, 2.0, -1.0, -1.0],
+            [0.0, 4.0, -1.0, 6.0, -5.0],
+            [1.0, 1.0, -1.0, -5.0, 4.0],
+        ];
+        let (estimate, solves) = run(&b);
+        assert!((estimate - 121.0 / 15.0).abs() < 1e-12, "{estimate}");
+        let expected: [[f64; 5]; 5] = [
+            [0.2; 5],
+            [1.0, 1.0, -1.0, 1.0, 1.0],
+            [1.0, 0.0, 0.0, 0.0, 0.0],
+            [1.0; 5],
+            [1.0, -1.25, 1.5, -1.75, 2.0],
+        ];
+        assert_solves(&solves, &expected);
+    }
 }

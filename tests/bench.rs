@@ -14,7 +14,9 @@ use burnish::materials::database::DatabaseSpec;
 use burnish::materials::tabulate;
 use burnish::metrics::table_errors;
 use burnish::scene::{GBuffer, Object, render_brdf, render_table, samples_from_image};
-use burnish::solver::analytic_fit::{FitOptions, LambertGgx, fit_lambert_ggx};
+use burnish::solver::analytic_fit::{
+    Distribution, FitOptions, LambertMicrofacet, fit_lambert_microfacet,
+};
 use burnish::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{PairIndex, SymTable, pair_multiplicity};
 use common::small_basis;
@@ -46,9 +48,10 @@ fn painted_table(
 
 #[test]
 fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples() {
-    let truth_model = LambertGgx {
+    let truth_model = LambertMicrofacet {
         albedo: [0.45, 0.2, 0.08],
         f0: [0.04, 0.05, 0.06],
+        distribution: Distribution::Ggx,
         alpha_x: 0.12,
         alpha_y: 0.35,
         rotation: 0.4,
@@ -59,7 +62,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
     let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
     let bins: Vec<(PairIndex, [f64; 3])> = table.observed().collect();
     assert!(bins.len() > 2000, "{} bins", bins.len());
-    let fit = fit_lambert_ggx(&bins, &FitOptions::default());
+    let fit = fit_lambert_microfacet(&bins, &FitOptions::default());
     println!("{fit:?}");
     let estimate = tabulate(&fit.model);
     let errors = table_errors(&truth, &estimate);
@@ -85,6 +88,39 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
     };
     assert!((ax / truth_model.alpha_x - 1.0).abs() < 0.05, "{m:?}");
     assert!((ay / truth_model.alpha_y - 1.0).abs() < 0.05, "{m:?}");
+}
+
+/// With Beckmann tried beside GGX, each shape's own material comes back in its own shape: a
+/// Gaussian-tailed metal as Beckmann (GGX alone takes a narrower, taller peak for it), and a
+/// GGX plastic still as GGX.
+#[test]
+fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
+    let options = FitOptions {
+        beckmann_margin: Some(1.0),
+        ..FitOptions::default()
+    };
+    for distribution in [Distribution::Beckmann, Distribution::Ggx] {
+        let truth_model = LambertMicrofacet {
+            albedo: [0.02, 0.03, 0.03],
+            f0: [0.47, 0.49, 0.49],
+            distribution,
+            alpha_x: 0.29,
+            alpha_y: 0.29,
+            rotation: 0.0,
+            specular: 1.0,
+        };
+        let truth = tabulate(&truth_model);
+        let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
+        let bins: Vec<(PairIndex, [f64; 3])> = table.observed().collect();
+        let fit = fit_lambert_microfacet(&bins, &options);
+        let m = fit.model;
+        assert_eq!(m.distribution, distribution, "{m:?}");
+        assert!(fit.rms_log_residual < 1e-3, "{fit:?}");
+        assert!((m.alpha_x / 0.29 - 1.0).abs() < 0.05, "{m:?}");
+        assert!((m.alpha_y / 0.29 - 1.0).abs() < 0.05, "{m:?}");
+        let errors = table_errors(&truth, &tabulate(&m));
+        assert!(errors.relative_rmse < 0.02, "{distribution:?}: {errors:?}");
+    }
 }
 
 /// Σ_p w_p (u_pᵀx − y_p)² over the whole table: the oracle's own criterion.
@@ -213,6 +249,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             scout_iterations: 3,
             finalists: 1,
             max_iterations: 20,
+            beckmann_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

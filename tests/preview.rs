@@ -327,17 +327,18 @@ fn reconstruction_mode_matches_the_materialised_table() {
 #[test]
 fn a_fitted_reference_moves_the_gpu_evaluation_as_it_moves_the_engine() {
     use burnish::solver::FittedReference;
-    use burnish::solver::analytic_fit::LambertGgx;
+    use burnish::solver::analytic_fit::{Distribution, LambertMicrofacet};
     let gpu = gpu();
     let basis = common::small_basis(8);
     let mut r = renderer(&gpu);
     r.set_basis(&basis).unwrap();
     let x = coefficients(&basis, 1);
     r.set_coefficients(&x).unwrap();
-    let model = LambertGgx {
+    let model = LambertMicrofacet {
         albedo: [0.3, 0.2, 0.1],
         f0: [0.9, 0.6, 0.3],
         specular: 1.0,
+        distribution: Distribution::Ggx,
         alpha_x: 0.08,
         alpha_y: 0.2,
         rotation: 0.4,

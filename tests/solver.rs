@@ -473,13 +473,14 @@ fn the_band_correlation_tightens_only_for_agreeing_bins_spread_over_theta_d() {
 #[test]
 fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     use burnish::metrics::table_errors;
-    use burnish::solver::analytic_fit::LambertGgx;
+    use burnish::solver::analytic_fit::{Distribution, LambertMicrofacet};
     use burnish::solver::{PriorMean, PriorModel};
 
     let basis = small_basis(20);
-    let truth_brdf = LambertGgx {
+    let truth_brdf = LambertMicrofacet {
         albedo: [0.25, 0.15, 0.1],
         f0: [0.04; 3],
+        distribution: Distribution::Ggx,
         alpha_x: 0.3,
         alpha_y: 0.3,
         rotation: 0.0,
@@ -515,6 +516,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
 
     let always = PriorMean::Fitted {
         margin_nats: f64::NEG_INFINITY,
+        beckmann_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
     fitted.apply_all(&changes);

@@ -89,7 +89,7 @@ pub struct ReconstructArgs {
     /// Where the prior is centred without --start: fitted:M (Lambert + GGX fitted to the
     /// paint, when it makes the paint e^M times more likely than the database's mean; the
     /// default, as calibrated), fitted (always) or database (the database's mean material).
-    #[arg(long, default_value = "fitted:3")]
+    #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.
     #[arg(long, default_value = "mean")]

@@ -3,7 +3,7 @@
 use super::reconstruct_cmd::{BasisOptions, ViewArg, load_basis, read_views, solve_views};
 use crate::next_view::{CANDIDATE_RESOLUTION, candidate_scenes, rank_views};
 use crate::scene::Object;
-use crate::solver::{Policy, PriorMean, Regularization};
+use crate::solver::{Policy, PriorMean, PriorModel, Regularization};
 use anyhow::Context;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -34,7 +34,7 @@ pub struct SuggestArgs {
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
     /// Where the prior is centred: database, fitted:M or fitted (as `reconstruct` reads it).
-    #[arg(long, default_value = "fitted:3")]
+    #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
 }
 

@@ -1,5 +1,6 @@
-//! The analytic baseline: Lambert plus anisotropic GGX fitted by Levenberg–Marquardt to the
-//! same binned samples the sparse solver sees, as tools like BRDFLab fit analytic models.
+//! The analytic baseline: Lambert plus an anisotropic microfacet lobe (GGX, and where asked
+//! Beckmann beside it) fitted by Levenberg–Marquardt to the same binned samples the sparse
+//! solver sees, as tools like BRDFLab fit analytic models.
 //!
 //! The residual of a bin is ln((ρ̂c + ε)/(ρc + ε)) per channel, weighted by the bin's pair
 //! multiplicity: the log-mapped domain and weights the basis and its solver use, so both
@@ -11,9 +12,8 @@
 use super::sparse::{Bound, Bounds, EXACT};
 use crate::basis::{MAP_EPSILON, cos_weight};
 use crate::materials::Brdf;
-use crate::materials::models::{
-    Distribution, Fresnel, Lambert, Microfacet, above, cos_half_difference, schlick,
-};
+pub use crate::materials::models::Distribution;
+use crate::materials::models::{Fresnel, Lambert, Microfacet, above, cos_half_difference, schlick};
 use crate::table::{PairIndex, bin_centre, pair_directions, pair_multiplicity};
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
@@ -21,9 +21,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4};
 
-/// Lambertian albedo plus an anisotropic GGX lobe with Schlick Fresnel, weighted.
+/// Lambertian albedo plus an anisotropic microfacet lobe (GGX or Beckmann) with Schlick
+/// Fresnel, weighted.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LambertGgx {
+pub struct LambertMicrofacet {
     /// Diffuse albedo per channel (ρ_d = albedo/π).
     pub albedo: [f64; 3],
     /// Specular reflectance at normal incidence per channel.
@@ -32,15 +33,17 @@ pub struct LambertGgx {
     /// reaches 1 whatever F0, so without it a fit to a dark diffuse material keeps a lobe
     /// that no painted bin forbids and that outshines the material at grazing angles.
     pub specular: f64,
-    /// GGX roughness along the rotated tangent.
+    /// The lobe's microfacet distribution.
+    pub distribution: Distribution,
+    /// Roughness along the rotated tangent.
     pub alpha_x: f64,
-    /// GGX roughness along the rotated bitangent.
+    /// Roughness along the rotated bitangent.
     pub alpha_y: f64,
     /// Angle (radians) the anisotropy axes are turned about the normal.
     pub rotation: f64,
 }
 
-impl LambertGgx {
+impl LambertMicrofacet {
     /// The model as the library's Lambert and microfacet lobe, whose sum [`Brdf::eval`]
     /// computes through [`Self::eval_from_lobe`].
     fn parts(&self) -> (Lambert, Microfacet) {
@@ -49,7 +52,7 @@ impl LambertGgx {
                 albedo: self.albedo,
             },
             Microfacet {
-                distribution: Distribution::Ggx,
+                distribution: self.distribution,
                 alpha_x: self.alpha_x,
                 alpha_y: self.alpha_y,
                 rotation: self.rotation,
@@ -78,7 +81,7 @@ impl LambertGgx {
     }
 }
 
-impl Brdf for LambertGgx {
+impl Brdf for LambertMicrofacet {
     fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
         let lobe = self.parts().1;
         self.eval_from_lobe(
@@ -119,10 +122,11 @@ fn alpha_param(alpha: f64) -> f64 {
     logit((alpha.ln() - ALPHA_MIN.ln()) / (ALPHA_MAX / ALPHA_MIN).ln())
 }
 
-fn model_of(theta: &[f64; P]) -> LambertGgx {
-    LambertGgx {
+fn model_of(theta: &[f64; P], distribution: Distribution) -> LambertMicrofacet {
+    LambertMicrofacet {
         albedo: [0, 1, 2].map(|c| logistic(theta[c])),
         f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
+        distribution,
         alpha_x: alpha_of(theta[6]),
         alpha_y: alpha_of(theta[7]),
         // A lobe turned by π is the same lobe: the reported angle stays in [0, π).
@@ -131,7 +135,7 @@ fn model_of(theta: &[f64; P]) -> LambertGgx {
     }
 }
 
-fn params_of(model: &LambertGgx) -> [f64; P] {
+fn params_of(model: &LambertMicrofacet) -> [f64; P] {
     let mut theta = [0.0; P];
     for c in 0..3 {
         theta[c] = logit(model.albedo[c]);
@@ -156,7 +160,7 @@ struct Observation {
     bounds: Bounds,
 }
 
-/// How hard the fit tries.
+/// How hard the fit tries, and which lobe shapes it tries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FitOptions {
     /// Iterations every start gets before the best are chosen.
@@ -165,14 +169,20 @@ pub struct FitOptions {
     pub finalists: usize,
     /// Iteration cap of a finalist.
     pub max_iterations: usize,
+    /// Also fit a Beckmann lobe, and keep it over GGX when its RMS log residual and its
+    /// brightness-weighted one are both below GGX's divided by this factor (1: whichever fits
+    /// better on both); `None`: GGX only.
+    pub beckmann_margin: Option<f64>,
 }
 
 impl Default for FitOptions {
+    /// GGX only: the analytic baseline and the exports' shape.
     fn default() -> Self {
         Self {
             scout_iterations: 8,
             finalists: 2,
             max_iterations: 80,
+            beckmann_margin: None,
         }
     }
 }
@@ -180,24 +190,31 @@ impl Default for FitOptions {
 /// The fitted model and how the fit went.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitResult {
-    pub model: LambertGgx,
+    pub model: LambertMicrofacet,
     /// RMS of the weighted log residuals at the optimum.
     pub rms_log_residual: f64,
-    /// Starts tried.
+    /// Starts tried (over every shape).
     pub starts: usize,
     /// LM iterations run over all starts.
     pub iterations: usize,
 }
 
-/// Fits Lambert + anisotropic GGX to observed bins `(pair, ρ)` (as [`crate::solver::SparseTable::observed`]
-/// gives them). With no observation it returns a mid-grey diffuse model.
-pub fn fit_lambert_ggx(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> FitResult {
+/// Fits Lambert + a microfacet lobe to observed bins `(pair, ρ)` (as
+/// [`crate::solver::SparseTable::observed`] gives them). With no observation it returns a
+/// mid-grey diffuse model.
+pub fn fit_lambert_microfacet(bins: &[(PairIndex, [f64; 3])], options: &FitOptions) -> FitResult {
     let bins: Vec<_> = bins.iter().map(|&(pair, rho)| (pair, rho, EXACT)).collect();
-    fit_lambert_ggx_bounded(&bins, options)
+    fit_lambert_microfacet_bounded(&bins, options)
 }
 
-/// [`fit_lambert_ggx`] on bins whose channels may be bounds (as the solver holds them).
-pub fn fit_lambert_ggx_bounded(
+/// [`fit_lambert_microfacet`] on bins whose channels may be bounds (as the solver holds them).
+///
+/// Why Beckmann beside GGX: fitted with GGX alone, a lobe with Gaussian tails (Beckmann,
+/// Blinn–Phong, Ward, Ashikhmin–Shirley) takes a narrower, taller GGX peak whose extrapolation
+/// overshoots where the peak is clipped or unpainted. With [`FitOptions::beckmann_margin`]
+/// both shapes are fitted, and Beckmann is kept only where it beats GGX by the margin both in
+/// the log residual and in the brightness-weighted one.
+pub fn fit_lambert_microfacet_bounded(
     bins: &[(PairIndex, [f64; 3], Bounds)],
     options: &FitOptions,
 ) -> FitResult {
@@ -219,18 +236,78 @@ pub fn fit_lambert_ggx_bounded(
     let starts = starting_points(bins);
     if observations.is_empty() {
         return FitResult {
-            model: model_of(&starts[0]),
+            model: model_of(&starts[0], Distribution::Ggx),
             rms_log_residual: 0.0,
             starts: 0,
             iterations: 0,
         };
     }
+    let residuals = 3.0 * observations.len() as f64;
+    let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
+    let mut best = fit_shape(&observations, &starts, Distribution::Ggx, options);
+    let mut iterations = best.2;
+    let mut shapes = 1;
+    if let Some(margin) = options.beckmann_margin {
+        let beckmann = fit_shape(&observations, &starts, Distribution::Beckmann, options);
+        iterations += beckmann.2;
+        shapes += 1;
+        // Beckmann must follow both the bulk of the bins (the fit's own log residual) and
+        // the bright ones (weighted as the ridge weighs them). A sharp lobe over a haze (two
+        // lobes) is fitted better in the log domain by a Beckmann lobe on the haze, which
+        // misses the peak, and a second view would only pull it further onto the haze.
+        let weighted = |fit: &([f64; P], f64, usize, Distribution)| {
+            brightness_weighted_rms(&observations, &model_of(&fit.0, fit.3))
+        };
+        if rms(beckmann.1) * margin < rms(best.1) && weighted(&beckmann) * margin < weighted(&best)
+        {
+            best = beckmann;
+        }
+    }
+    FitResult {
+        model: model_of(&best.0, best.3),
+        rms_log_residual: rms(best.1),
+        starts: starts.len() * shapes,
+        iterations,
+    }
+}
+
+/// RMS of the log residuals weighted by each bin's brightness L (luminance × cos θ_l cos θ_v)
+/// as the ridge weighs them, (L + κ L̄)/((1 + κ) L̄) with the calibrated κ = 0.3: how well a
+/// fit follows the bins that decide a render.
+fn brightness_weighted_rms(observations: &[Observation], model: &LambertMicrofacet) -> f64 {
+    const KAPPA: f64 = 0.3;
+    let brightness = |o: &Observation| {
+        let v = o.target.map(|t| (t.exp() - MAP_EPSILON).max(0.0));
+        0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
+    };
+    let mean = observations.iter().map(brightness).sum::<f64>() / observations.len() as f64;
+    if mean.is_nan() || mean <= 0.0 {
+        return 0.0;
+    }
+    let (mut sum, mut weights) = (0.0, 0.0);
+    for o in observations {
+        let w = (brightness(o) + KAPPA * mean) / ((1.0 + KAPPA) * mean);
+        sum += w * residuals(model, o).iter().map(|r| r * r).sum::<f64>();
+        weights += w * 3.0 * o.sqrt_weight * o.sqrt_weight;
+    }
+    (sum / weights).sqrt()
+}
+
+/// The best parameters for one lobe shape from `starts`: every start scouted for a few
+/// iterations, the best finalists run to convergence. Returns the parameters, their cost, the
+/// iterations run and the shape.
+fn fit_shape(
+    observations: &[Observation],
+    starts: &[[f64; P]],
+    distribution: Distribution,
+    options: &FitOptions,
+) -> ([f64; P], f64, usize, Distribution) {
     let mut iterations = 0;
     let mut scouted: Vec<([f64; P], f64)> = starts
         .iter()
         .map(|start| {
             let (theta, cost, it) =
-                levenberg_marquardt(&observations, *start, options.scout_iterations);
+                levenberg_marquardt(observations, *start, distribution, options.scout_iterations);
             iterations += it;
             (theta, cost)
         })
@@ -238,19 +315,14 @@ pub fn fit_lambert_ggx_bounded(
     scouted.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (mut best, mut best_cost) = (scouted[0].0, scouted[0].1);
     for &(theta, _) in scouted.iter().take(options.finalists.max(1)) {
-        let (theta, cost, it) = levenberg_marquardt(&observations, theta, options.max_iterations);
+        let (theta, cost, it) =
+            levenberg_marquardt(observations, theta, distribution, options.max_iterations);
         iterations += it;
         if cost < best_cost {
             (best, best_cost) = (theta, cost);
         }
     }
-    let residuals = 3.0 * observations.len() as f64;
-    FitResult {
-        model: model_of(&best),
-        rms_log_residual: (2.0 * best_cost / residuals).sqrt(),
-        starts: starts.len(),
-        iterations,
-    }
+    (best, best_cost, iterations, distribution)
 }
 
 /// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,
@@ -276,9 +348,10 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
             albedo
         };
         for alpha in [0.03, 0.1, 0.3, 0.7] {
-            starts.push(params_of(&LambertGgx {
+            starts.push(params_of(&LambertMicrofacet {
                 albedo: albedo.map(|a| a.max(0.01)),
                 f0: [f0; 3],
+                distribution: Distribution::Ggx,
                 alpha_x: alpha,
                 alpha_y: alpha,
                 rotation: 0.0,
@@ -288,9 +361,10 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
     }
     // Nearly diffuse: a faint lobe, which the scouts could not reach from a full one.
     for alpha in [0.1, 0.4] {
-        starts.push(params_of(&LambertGgx {
+        starts.push(params_of(&LambertMicrofacet {
             albedo: albedo.map(|a| a.max(0.01)),
             f0: [0.04; 3],
+            distribution: Distribution::Ggx,
             alpha_x: alpha,
             alpha_y: alpha,
             rotation: 0.0,
@@ -298,9 +372,10 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
         }));
     }
     for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
-        starts.push(params_of(&LambertGgx {
+        starts.push(params_of(&LambertMicrofacet {
             albedo,
             f0: [0.04; 3],
+            distribution: Distribution::Ggx,
             alpha_x: 0.05,
             alpha_y: 0.3,
             rotation,
@@ -316,7 +391,7 @@ const CHUNK: usize = 512;
 /// Weighted log residuals of one observation under `model`; a bounded channel's is zero on
 /// the side its bound allows.
 #[inline]
-fn residuals(model: &LambertGgx, o: &Observation) -> [f64; 3] {
+fn residuals(model: &LambertMicrofacet, o: &Observation) -> [f64; 3] {
     residuals_of(model.eval(o.l, o.v), o)
 }
 
@@ -335,8 +410,8 @@ fn residuals_of(rho: [f64; 3], o: &Observation) -> [f64; 3] {
 }
 
 /// ½‖r‖² at `theta`.
-fn cost(observations: &[Observation], theta: &[f64; P]) -> f64 {
-    let model = model_of(theta);
+fn cost(observations: &[Observation], theta: &[f64; P], distribution: Distribution) -> f64 {
+    let model = model_of(theta, distribution);
     let partials: Vec<f64> = observations
         .par_chunks(CHUNK)
         .map(|chunk| {
@@ -356,18 +431,19 @@ fn cost(observations: &[Observation], theta: &[f64; P]) -> f64 {
 fn normal_equations(
     observations: &[Observation],
     theta: &[f64; P],
+    distribution: Distribution,
 ) -> ([f64; P * P], [f64; P], f64) {
     const STEP: f64 = 1e-6;
     /// The parameters D·G depends on.
     const SHAPE: [usize; 3] = [6, 7, 8];
-    let base = model_of(theta);
+    let base = model_of(theta, distribution);
     let lobe = base.parts().1;
-    let perturbed: Vec<(LambertGgx, Option<Microfacet>, f64)> = (0..P)
+    let perturbed: Vec<(LambertMicrofacet, Option<Microfacet>, f64)> = (0..P)
         .map(|j| {
             let mut t = *theta;
             let h = STEP * theta[j].abs().max(1.0);
             t[j] += h;
-            let model = model_of(&t);
+            let model = model_of(&t, distribution);
             let lobe = SHAPE.contains(&j).then(|| model.parts().1);
             (model, lobe, t[j] - theta[j])
         })
@@ -443,10 +519,11 @@ fn damped_step(jtj: &[f64; P * P], jtr: &[f64; P], lambda: f64) -> Option<[f64; 
 fn levenberg_marquardt(
     observations: &[Observation],
     mut theta: [f64; P],
+    distribution: Distribution,
     max_iterations: usize,
 ) -> ([f64; P], f64, usize) {
     let mut lambda = 1e-3;
-    let (mut jtj, mut jtr, mut current) = normal_equations(observations, &theta);
+    let (mut jtj, mut jtr, mut current) = normal_equations(observations, &theta, distribution);
     let mut iterations = 0;
     while iterations < max_iterations {
         iterations += 1;
@@ -455,7 +532,7 @@ fn levenberg_marquardt(
         while lambda < 1e10 {
             if let Some(step) = damped_step(&jtj, &jtr, lambda) {
                 let trial: [f64; P] = std::array::from_fn(|i| theta[i] + step[i]);
-                let trial_cost = cost(observations, &trial);
+                let trial_cost = cost(observations, &trial, distribution);
                 if trial_cost.is_finite() && trial_cost < current {
                     let gain = (current - trial_cost) / current.max(f64::MIN_POSITIVE);
                     theta = trial;
@@ -472,7 +549,7 @@ fn levenberg_marquardt(
         if !accepted {
             break;
         }
-        (jtj, jtr, current) = normal_equations(observations, &theta);
+        (jtj, jtr, current) = normal_equations(observations, &theta, distribution);
     }
     (theta, current, iterations)
 }
@@ -482,9 +559,10 @@ mod tests {
     use super::*;
 
     /// Anisotropic, tinted, neither dielectric nor metal.
-    const MIXED: LambertGgx = LambertGgx {
+    const MIXED: LambertMicrofacet = LambertMicrofacet {
         albedo: [0.2, 0.5, 0.9],
         f0: [0.04, 0.3, 0.95],
+        distribution: Distribution::Ggx,
         alpha_x: 0.02,
         alpha_y: 1.2,
         rotation: 0.7,
@@ -498,9 +576,10 @@ mod tests {
         use crate::table::PAIRS;
         let models = [
             MIXED,
-            LambertGgx {
+            LambertMicrofacet {
                 albedo: [0.0; 3],
                 f0: [0.9; 3],
+                distribution: Distribution::Beckmann,
                 alpha_x: 0.01,
                 alpha_y: 0.01,
                 rotation: 0.0,
@@ -530,14 +609,17 @@ mod tests {
     #[test]
     fn parametrisation_round_trips_within_bounds() {
         let model = MIXED;
-        let back = model_of(&params_of(&model));
+        let back = model_of(&params_of(&model), model.distribution);
         for c in 0..3 {
             assert!((back.albedo[c] - model.albedo[c]).abs() < 1e-9);
             assert!((back.f0[c] - model.f0[c]).abs() < 1e-9);
         }
         assert!((back.alpha_x - 0.02).abs() < 1e-9 && (back.alpha_y - 1.2).abs() < 1e-9);
         assert!((back.specular - 0.3).abs() < 1e-9);
-        let extreme = model_of(&[1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3]);
+        let extreme = model_of(
+            &[1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3],
+            Distribution::Ggx,
+        );
         assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
         assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));
     }

@@ -1,4 +1,5 @@
-//! A reference fitted to the paint itself: Lambert + GGX fitted to the painted bins
+//! A reference fitted to the paint itself: Lambert + a microfacet lobe (GGX, or Beckmann where
+//! [`super::PriorMean::Fitted`] asks for it) fitted to the painted bins
 //! ([`super::analytic_fit`]), tabulated, and used as the table the basis then corrects.
 //!
 //! **Why.** Centred on the database's mean material, the prior fills the unpainted part of
@@ -23,7 +24,7 @@
 //! at once ([`super::Solver::refit_prior_mean`]). Everything is deterministic, so the app and
 //! the command line reach the same reference from the same bins.
 
-use super::analytic_fit::{FitOptions, LambertGgx, fit_lambert_ggx_bounded};
+use super::analytic_fit::{FitOptions, LambertMicrofacet, fit_lambert_microfacet_bounded};
 use super::sparse::Bounds;
 use crate::basis::Basis;
 use crate::materials::tabulate;
@@ -44,6 +45,8 @@ pub struct MeanFitRequest {
     pub generation: u64,
     pub(super) bins: Vec<(PairIndex, [f64; 3], Bounds)>,
     pub(super) basis: Arc<Basis>,
+    /// The lobe shapes the fit tries ([`super::PriorMean::Fitted`]'s choice).
+    pub(super) options: FitOptions,
 }
 
 /// A fitted reference, ready to install.
@@ -58,7 +61,7 @@ pub struct FittedMean {
 /// and channel, map(F_p) − mean_p. The reconstruction adds it to what the coefficients give;
 /// the solver subtracts it from each painted bin.
 pub struct FittedReference {
-    model: LambertGgx,
+    model: LambertMicrofacet,
     /// The basis whose map and mean the offsets are measured in.
     basis: Arc<Basis>,
     offsets: Vec<[f32; 3]>,
@@ -81,7 +84,7 @@ impl PartialEq for FittedReference {
 
 impl FittedReference {
     /// Tabulates `model` on `basis`'s map.
-    pub fn new(basis: Arc<Basis>, model: LambertGgx) -> Self {
+    pub fn new(basis: Arc<Basis>, model: LambertMicrofacet) -> Self {
         let table = tabulate(&model);
         let offsets = table
             .pairs()
@@ -109,7 +112,7 @@ impl FittedReference {
         }
     }
 
-    pub fn model(&self) -> &LambertGgx {
+    pub fn model(&self) -> &LambertMicrofacet {
         &self.model
     }
 
@@ -138,7 +141,7 @@ impl MeanFitRequest {
 
     /// Fits the model and tabulates it. Deterministic for given bins, whatever the threads.
     pub fn run(self) -> FittedMean {
-        let fit = fit_lambert_ggx_bounded(&self.bins, &FitOptions::default());
+        let fit = fit_lambert_microfacet_bounded(&self.bins, &self.options);
         FittedMean {
             generation: self.generation,
             reference: Arc::new(FittedReference::new(self.basis, fit.model)),

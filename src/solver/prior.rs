@@ -106,10 +106,16 @@ pub struct PriorModel {
 pub enum PriorMean {
     /// The database's mean material (every coefficient 0), as in Nielsen et al.
     Database,
-    /// Lambert + GGX fitted to the painted bins ([`super::fitted_mean`]), kept per entry as
-    /// the reference the coefficients correct, taken when it makes the bins more than
-    /// e^`margin_nats` times as likely as the database's mean does (−∞: always).
-    Fitted { margin_nats: f64 },
+    /// Lambert + a microfacet lobe fitted to the painted bins ([`super::fitted_mean`]), kept
+    /// per entry as the reference the coefficients correct, taken when it makes the bins more
+    /// than e^`margin_nats` times as likely as the database's mean does (−∞: always).
+    Fitted {
+        margin_nats: f64,
+        /// The lobe is GGX unless a Beckmann lobe fits the bins better by this factor in RMS
+        /// log residual, plain and brightness-weighted
+        /// ([`super::analytic_fit::FitOptions::beckmann_margin`]); `None`: GGX only.
+        beckmann_margin: Option<f64>,
+    },
 }
 
 impl PriorMean {
@@ -129,36 +135,90 @@ impl PriorMean {
     /// hand-built material of the pipeline tests grows by a view.
     pub const FITTED: Self = Self::Fitted {
         margin_nats: EVIDENCE_MARGIN_NATS,
+        beckmann_margin: None,
     };
+
+    /// The fit's options for this mean: which lobe shapes it tries.
+    pub fn fit_options(&self) -> super::analytic_fit::FitOptions {
+        super::analytic_fit::FitOptions {
+            beckmann_margin: match self {
+                Self::Fitted {
+                    beckmann_margin, ..
+                } => *beckmann_margin,
+                Self::Database => None,
+            },
+            ..Default::default()
+        }
+    }
 
     pub fn name(&self) -> String {
         match self {
             Self::Database => "database".to_string(),
-            Self::Fitted { margin_nats } if *margin_nats == f64::NEG_INFINITY => {
-                "fitted".to_string()
+            Self::Fitted {
+                margin_nats,
+                beckmann_margin,
+            } => {
+                let mut name = if *margin_nats == f64::NEG_INFINITY {
+                    "fitted".to_string()
+                } else {
+                    format!("fitted:{margin_nats}")
+                };
+                match beckmann_margin {
+                    None => {}
+                    Some(m) if *m == 1.0 => name.push_str("+beckmann"),
+                    Some(m) => name.push_str(&format!("+beckmann:{m}")),
+                }
+                name
             }
-            Self::Fitted { margin_nats } => format!("fitted:{margin_nats}"),
         }
+    }
+}
+
+impl std::fmt::Display for PriorMean {
+    /// The name [`std::str::FromStr`] reads back.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
     }
 }
 
 impl std::str::FromStr for PriorMean {
     type Err = String;
-    /// `database`, `fitted` (always) or `fitted:M` (when the evidence gains more than M nats).
+    /// `database`, `fitted` (always) or `fitted:M` (when the evidence gains more than M nats),
+    /// either fitted one followed by `+beckmann` (a Beckmann lobe when it fits better) or
+    /// `+beckmann:R` (when it fits R times better).
     fn from_str(s: &str) -> Result<Self, String> {
-        match s.split_once(':') {
-            None if s == "database" => Ok(Self::Database),
-            None if s == "fitted" => Ok(Self::Fitted {
-                margin_nats: f64::NEG_INFINITY,
-            }),
-            Some(("fitted", m)) => match m.parse::<f64>() {
-                Ok(margin_nats) if !margin_nats.is_nan() => Ok(Self::Fitted { margin_nats }),
-                _ => Err(format!("'{m}' is not a margin in nats")),
+        let (fitted, beckmann_margin) = match s.split_once('+') {
+            None => (s, None),
+            Some((fitted, "beckmann")) => (fitted, Some(1.0)),
+            Some((fitted, shape)) => match shape.strip_prefix("beckmann:").map(str::parse::<f64>) {
+                Some(Ok(r)) if r.is_finite() && r > 0.0 => (fitted, Some(r)),
+                _ => {
+                    return Err(format!(
+                        "'{shape}' is not a lobe shape (beckmann, beckmann:R with R > 0)"
+                    ));
+                }
             },
-            _ => Err(format!(
-                "unknown prior mean '{s}' (database, fitted, fitted:M)"
-            )),
-        }
+        };
+        let margin_nats = match fitted.split_once(':') {
+            None if fitted == "database" && beckmann_margin.is_none() => {
+                return Ok(Self::Database);
+            }
+            None if fitted == "fitted" => f64::NEG_INFINITY,
+            Some(("fitted", m)) => match m.parse::<f64>() {
+                Ok(margin_nats) if !margin_nats.is_nan() => margin_nats,
+                _ => return Err(format!("'{m}' is not a margin in nats")),
+            },
+            _ => {
+                return Err(format!(
+                    "unknown prior mean '{s}' (database, fitted, fitted:M, each fitted one \
+                     with an optional +beckmann or +beckmann:R)"
+                ));
+            }
+        };
+        Ok(Self::Fitted {
+            margin_nats,
+            beckmann_margin,
+        })
     }
 }
 
@@ -375,12 +435,33 @@ mod tests {
             PriorMean::Database,
             PriorMean::Fitted {
                 margin_nats: f64::NEG_INFINITY,
+                beckmann_margin: None,
             },
-            PriorMean::Fitted { margin_nats: 3.0 },
-            PriorMean::Fitted { margin_nats: -2.5 },
+            PriorMean::Fitted {
+                margin_nats: 3.0,
+                beckmann_margin: None,
+            },
+            PriorMean::Fitted {
+                margin_nats: -2.5,
+                beckmann_margin: Some(1.0),
+            },
+            PriorMean::Fitted {
+                margin_nats: f64::NEG_INFINITY,
+                beckmann_margin: Some(1.25),
+            },
         ] {
             assert_eq!(m.name().parse::<PriorMean>(), Ok(m));
         }
+        assert_eq!(
+            "fitted:3+beckmann:1.5".parse::<PriorMean>(),
+            Ok(PriorMean::Fitted {
+                margin_nats: 3.0,
+                beckmann_margin: Some(1.5)
+            })
+        );
+        assert!("database+beckmann".parse::<PriorMean>().is_err());
+        assert!("fitted+beckmann:0".parse::<PriorMean>().is_err());
+        assert!("fitted+ggx".parse::<PriorMean>().is_err());
         assert!("fitted:nan".parse::<PriorMean>().is_err());
         assert!("fitted:".parse::<PriorMean>().is_err());
         assert!("mean".parse::<PriorMean>().is_err());

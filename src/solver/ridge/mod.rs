@@ -307,6 +307,7 @@ impl Solver {
                 .map(|(&pair, obs)| (pair, obs.rho, obs.bounds))
                 .collect(),
             basis: self.basis.clone(),
+            options: self.model.mean.fit_options(),
         })
     }
 
@@ -327,7 +328,7 @@ impl Solver {
         }
         let before = self.reference_ptr();
         let margin = match self.model.mean {
-            PriorMean::Fitted { margin_nats } => margin_nats,
+            PriorMean::Fitted { margin_nats, .. } => margin_nats,
             PriorMean::Database => f64::INFINITY,
         };
         let reference = fitted.reference;

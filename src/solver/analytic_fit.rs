@@ -9,6 +9,7 @@
 //! albedo and F0, logistic log-roughness), so the optimiser itself is unconstrained. Several
 //! starts run a few iterations each; the best ones are run to convergence.
 
+use super::prior::PriorModel;
 use super::sparse::{Bound, Bounds, EXACT};
 use crate::basis::{MAP_EPSILON, cos_weight};
 use crate::materials::Brdf;
@@ -272,10 +273,11 @@ pub fn fit_lambert_microfacet_bounded(
 }
 
 /// RMS of the log residuals weighted by each bin's brightness L (luminance × cos θ_l cos θ_v)
-/// as the ridge weighs them, (L + κ L̄)/((1 + κ) L̄) with the calibrated κ = 0.3: how well a
-/// fit follows the bins that decide a render.
+/// as the calibrated prior weighs them, ((L + κ L̄)/((1 + κ) L̄))^β: how well a fit follows
+/// the bins that decide a render.
 fn brightness_weighted_rms(observations: &[Observation], model: &LambertMicrofacet) -> f64 {
-    const KAPPA: f64 = 0.3;
+    const KAPPA: f64 = PriorModel::CALIBRATED.brightness_floor;
+    const BETA: f64 = PriorModel::CALIBRATED.brightness_exponent;
     let brightness = |o: &Observation| {
         let v = o.target.map(|t| (t.exp() - MAP_EPSILON).max(0.0));
         0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
@@ -286,7 +288,7 @@ fn brightness_weighted_rms(observations: &[Observation], model: &LambertMicrofac
     }
     let (mut sum, mut weights) = (0.0, 0.0);
     for o in observations {
-        let w = (brightness(o) + KAPPA * mean) / ((1.0 + KAPPA) * mean);
+        let w = ((brightness(o) + KAPPA * mean) / ((1.0 + KAPPA) * mean)).powf(BETA);
         sum += w * residuals(model, o).iter().map(|r| r * r).sum::<f64>();
         weights += w * 3.0 * o.sqrt_weight * o.sqrt_weight;
     }

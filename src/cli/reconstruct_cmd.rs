@@ -87,8 +87,10 @@ pub struct ReconstructArgs {
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
     /// Where the prior is centred without --start: fitted:M (Lambert + GGX fitted to the
-    /// paint, when it makes the paint e^M times more likely than the database's mean; the
-    /// default, as calibrated), fitted (always) or database (the database's mean material).
+    /// paint, when it makes the paint e^M times more likely than the database's mean),
+    /// fitted (always) or database (the database's mean material); a fitted one may add
+    /// +beckmann (a Beckmann lobe where it fits both the paint and its bright bins better;
+    /// the default, fitted:3+beckmann, as calibrated) or +beckmann:R (R times better).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -88,7 +88,7 @@ pub enum Command {
     /// the prior mean), or `None` for the database's mean material.
     SetStartMaterial(Option<Arc<SymTable>>),
     /// Where the prior is centred without a starting material (the database's mean, or
-    /// Lambert + GGX fitted to the paint).
+    /// Lambert + a microfacet lobe fitted to the paint).
     SetPriorMean(PriorMean),
     /// Answers with the version of the snapshot that includes every command sent before it,
     /// and the prior's mean fitted to them.

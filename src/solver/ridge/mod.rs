@@ -44,7 +44,7 @@
 //!
 //! **The prior's mean** is the database's mean material (all coefficients 0), a starting
 //! material's projection (`Solver::set_prior_mean`). Under [`PriorMean::Fitted`] the bins are
-//! measured instead from Lambert + GGX fitted to them ([`super::fitted_mean`]): y_p =
+//! measured instead from Lambert + a GGX or Beckmann lobe fitted to them ([`super::fitted_mean`]): y_p =
 //! map(ρ_p) − map(F_p), and the reconstruction adds the coefficients' part back onto map(F).
 //! The fit is too slow for the live loop, so it is installed apart
 //! (`Solver::install_fitted_mean`) and taken only when the evidence favours it by the model's

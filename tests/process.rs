@@ -54,8 +54,20 @@ fn start_display() -> Display {
             continue;
         }
         let name = format!(":{number}");
+        // -noreset: an X server resets when its last client leaves, and refuses connections
+        // while it does. The readiness probe below is such a client; without it the app,
+        // launched right after, could land in that reset and fail to open its window (seen
+        // once under load, and once on an idle machine).
         let server = Command::new("Xvfb")
-            .args([&name, "-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
+            .args([
+                &name,
+                "-screen",
+                "0",
+                "1600x1000x24",
+                "-nolisten",
+                "tcp",
+                "-noreset",
+            ])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -117,7 +129,7 @@ impl Display {
             }
             if let Ok(Some(status)) = app.0.try_wait() {
                 // Whether the display still answers tells a dead server from a client that
-                // could not connect (seen once, under a load of 6 on 2 cores).
+                // could not connect.
                 let answers = xdotool_on(&self.name, &["getdisplaygeometry"]).is_some();
                 panic!(
                     "burnish exited ({status}); display {} answers xdotool: {answers}:\n{}",

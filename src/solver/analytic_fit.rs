@@ -246,27 +246,26 @@ pub fn fit_lambert_microfacet_bounded(
     let residuals = 3.0 * observations.len() as f64;
     let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
     let mut best = fit_shape(&observations, &starts, Distribution::Ggx, options);
-    let mut iterations = best.2;
+    let mut iterations = best.iterations;
     let mut shapes = 1;
     if let Some(margin) = options.beckmann_margin {
         let beckmann = fit_shape(&observations, &starts, Distribution::Beckmann, options);
-        iterations += beckmann.2;
+        iterations += beckmann.iterations;
         shapes += 1;
         // Beckmann must follow both the bulk of the bins (the fit's own log residual) and
         // the bright ones (weighted as the ridge weighs them). A sharp lobe over a haze (two
         // lobes) is fitted better in the log domain by a Beckmann lobe on the haze, which
         // misses the peak, and a second view would only pull it further onto the haze.
-        let weighted = |fit: &([f64; P], f64, usize, Distribution)| {
-            brightness_weighted_rms(&observations, &model_of(&fit.0, fit.3))
-        };
-        if rms(beckmann.1) * margin < rms(best.1) && weighted(&beckmann) * margin < weighted(&best)
+        let weighted = |fit: &ShapeFit| brightness_weighted_rms(&observations, &fit.model());
+        if rms(beckmann.cost) * margin < rms(best.cost)
+            && weighted(&beckmann) * margin < weighted(&best)
         {
             best = beckmann;
         }
     }
     FitResult {
-        model: model_of(&best.0, best.3),
-        rms_log_residual: rms(best.1),
+        model: best.model(),
+        rms_log_residual: rms(best.cost),
         starts: starts.len() * shapes,
         iterations,
     }
@@ -295,15 +294,30 @@ fn brightness_weighted_rms(observations: &[Observation], model: &LambertMicrofac
     (sum / weights).sqrt()
 }
 
+/// The best fit of one lobe shape.
+struct ShapeFit {
+    theta: [f64; P],
+    /// ½‖r‖² at `theta`.
+    cost: f64,
+    /// LM iterations run over every start.
+    iterations: usize,
+    distribution: Distribution,
+}
+
+impl ShapeFit {
+    fn model(&self) -> LambertMicrofacet {
+        model_of(&self.theta, self.distribution)
+    }
+}
+
 /// The best parameters for one lobe shape from `starts`: every start scouted for a few
-/// iterations, the best finalists run to convergence. Returns the parameters, their cost, the
-/// iterations run and the shape.
+/// iterations, the best finalists run to convergence.
 fn fit_shape(
     observations: &[Observation],
     starts: &[[f64; P]],
     distribution: Distribution,
     options: &FitOptions,
-) -> ([f64; P], f64, usize, Distribution) {
+) -> ShapeFit {
     let mut iterations = 0;
     let mut scouted: Vec<([f64; P], f64)> = starts
         .iter()
@@ -324,7 +338,12 @@ fn fit_shape(
             (best, best_cost) = (theta, cost);
         }
     }
-    (best, best_cost, iterations, distribution)
+    ShapeFit {
+        theta: best,
+        cost: best_cost,
+        iterations,
+        distribution,
+    }
 }
 
 /// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,

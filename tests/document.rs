@@ -5,7 +5,7 @@
 mod common;
 
 use burnish::basis::Basis;
-use burnish::document::{Document, DocumentConfig, Event, painting_mask_path};
+use burnish::document::{BasisSource, Document, DocumentConfig, Event, painting_mask_path};
 use burnish::image_io::RgbImage;
 use burnish::paint::{BrushSettings, UnpaintedPixels};
 use burnish::scene::{PaintRange, Scene, read_painting, samples_from_file, write_image, write_png};
@@ -21,7 +21,7 @@ const RESOLUTION: usize = 128;
 /// A document on `basis`, without autosave, its basis taken in.
 fn headless(basis: &Arc<Basis>) -> Document {
     let mut doc = Document::new(DocumentConfig {
-        basis: Some(basis.clone()),
+        basis: BasisSource::Given(basis.clone()),
         basis_cache: None,
         basis_settings: BasisSettings {
             components: basis.components(),
@@ -274,4 +274,175 @@ fn a_mask_of_the_wrong_size_refuses_the_import_and_names_the_mask() {
         "{error}"
     );
     assert_eq!(doc.views()[0].canvas().layers().coverage, before);
+}
+
+/// What `reconstruct` solved before it drove a document: every `(scene, painting)` read
+/// whole as view i, binned and solved by the default prior.
+fn solver_of_views(basis: &Arc<Basis>, doc: &Document, paintings: &[&Path]) -> Solver {
+    let mut table = SparseTable::new(Policy::Mean);
+    let mut changes = Vec::new();
+    for (i, painting) in paintings.iter().enumerate() {
+        let set = samples_from_file(doc.views()[i].gbuffer(), painting).unwrap();
+        set.insert_into(i as u32, &mut table, &mut changes).unwrap();
+    }
+    let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+    solver.apply_all(&changes);
+    solver.refit_prior_mean();
+    solver
+}
+
+/// Two views painted elsewhere: the guide of each, tinted, as an EXR in `dir`.
+fn tinted_guides(doc: &mut Document, dir: &Path, tints: &[[f32; 3]]) -> Vec<std::path::PathBuf> {
+    let mut paths = Vec::new();
+    for (i, tint) in tints.iter().enumerate() {
+        doc.set_active(i);
+        let guide = dir.join(format!("guide{i}.png"));
+        doc.export_guide(&guide).unwrap();
+        let mut image = read_painting(&guide, RESOLUTION).unwrap();
+        for p in &mut image.pixels {
+            *p = [p[0] * tint[0], p[1] * tint[1], p[2] * tint[2]];
+        }
+        let painting = dir.join(format!("painting{i}.exr"));
+        write_image(&painting, &image).unwrap();
+        paths.push(painting);
+    }
+    paths
+}
+
+/// A view added while a BRDF exists starts from its prediction, which arrives later. A
+/// painting imported at once, before it arrives, stays the view's paint: the document then
+/// solves what `reconstruct` solves from the same files, and the late prediction only goes
+/// under the paint.
+#[test]
+fn a_painting_imported_before_the_prediction_arrives_stays_the_paint() {
+    let basis = common::small_basis(8);
+    let dir = tempfile::tempdir().unwrap();
+    // The paintings, made from the guides of the two scenes.
+    let second = Scene {
+        resolution: RESOLUTION as u32,
+        light: burnish::scene::LightSettings {
+            elevation_deg: 30.0,
+            azimuth_deg: -70.0,
+        },
+        ..Scene::default()
+    };
+    let mut scratch = sphere_document(&basis);
+    scratch.add_view(second.clone()).unwrap();
+    let paintings = tinted_guides(
+        &mut scratch,
+        dir.path(),
+        &[[1.2, 1.0, 0.7], [0.9, 1.1, 1.3]],
+    );
+
+    let mut doc = sphere_document(&basis);
+    doc.import_painting(&paintings[0]).unwrap();
+    synced(&mut doc);
+    doc.add_view(second).unwrap();
+    assert!(doc.predictions_pending(), "view 2 waits for its prediction");
+    doc.import_painting(&paintings[1]).unwrap();
+    let snapshot = doc.settle(Duration::from_secs(60)).unwrap();
+    assert!(!doc.predictions_pending());
+    assert_eq!(doc.views()[1].base(), burnish::document::Base::Prediction);
+    let view = &doc.views()[1];
+    let imported = read_painting(&paintings[1], RESOLUTION).unwrap();
+    for (i, &inside) in view.canvas().object_mask().iter().enumerate() {
+        if inside {
+            assert_eq!(view.canvas().layers().coverage[i], 1.0, "pixel {i} painted");
+            assert_eq!(view.canvas().layers().colour.pixels[i], imported.pixels[i]);
+        }
+    }
+
+    let solver = solver_of_views(&basis, &doc, &[&paintings[0], &paintings[1]]);
+    let worst = relative_difference(&snapshot.coefficients, &solver.solve().coefficients);
+    assert!(worst < 1e-6, "document and CLI differ by {worst}");
+
+    // The uncertainty it reports is the solver's, per channel.
+    let sd = doc.settled_uncertainty(Duration::from_secs(60)).unwrap();
+    let expected = solver
+        .posterior()
+        .table_std_dev(&solver.solve().reconstruction(basis.clone()));
+    let scale = expected
+        .pairs()
+        .iter()
+        .flatten()
+        .fold(0.0f32, |m, s| m.max(*s));
+    let worst = sd
+        .pairs()
+        .iter()
+        .zip(expected.pairs())
+        .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(
+        scale > 0.0 && worst <= 1e-5 * scale,
+        "uncertainty differs by {worst} of {scale}"
+    );
+
+    // The ranking of next views is the solver's too.
+    let ranked = doc.settled_ranking(8, Duration::from_secs(120)).unwrap();
+    let candidates = burnish::next_view::candidate_scenes(doc.views()[1].scene(), 8);
+    let observed = doc.observed().collect();
+    let direct =
+        burnish::next_view::rank_views(&solver, doc.views()[1].object(), &candidates, &observed);
+    assert_eq!(ranked.len(), direct.len());
+    for (a, b) in ranked.iter().zip(&direct) {
+        assert_eq!((a.bins, a.new_bins), (b.bins, b.new_bins));
+        assert!(
+            (a.score - b.score).abs() <= 1e-6 * b.score.abs().max(1e-30),
+            "{} vs {}",
+            a.score,
+            b.score
+        );
+    }
+}
+
+/// NaN, infinite or negative paint on the object refuses an import and leaves the canvas as
+/// it was, naming the file, the count and the first pixel; in the background, where it is
+/// no paint, it is ignored (as `burnish reconstruct` reads the same file).
+#[test]
+fn an_import_refuses_bad_paint_on_the_object_only() {
+    let basis = common::small_basis(8);
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc = sphere_document(&basis);
+    let guide = dir.path().join("guide.png");
+    doc.export_guide(&guide).unwrap();
+    let mut image = read_painting(&guide, RESOLUTION).unwrap();
+    let mask = doc.views()[0].canvas().object_mask().to_vec();
+    let background = mask.iter().position(|&m| !m).unwrap();
+    image.pixels[background] = [f32::NAN, -1.0, f32::INFINITY];
+    let painting = dir.path().join("painting.exr");
+    write_image(&painting, &image).unwrap();
+    let report = doc.import_painting(&painting).unwrap();
+    assert_eq!(report.bad_paint, 0);
+    assert!(report.counts.used > 1_000);
+    let coverage = doc.views()[0].canvas().layers().coverage.clone();
+    assert!(
+        doc.views()[0]
+            .canvas()
+            .layers()
+            .colour
+            .pixels
+            .iter()
+            .flatten()
+            .all(|c| c.is_finite())
+    );
+
+    let inside: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
+    let (first, second) = (inside[10], inside[inside.len() / 2]);
+    image.pixels[first] = [0.1, f32::NAN, 0.1];
+    image.pixels[second] = [0.1, 0.1, -0.5];
+    write_image(&painting, &image).unwrap();
+    let error = doc.import_painting(&painting).unwrap_err().to_string();
+    let at = format!("x = {}, y = {}", first % RESOLUTION, first / RESOLUTION);
+    for expected in [
+        "painting.exr",
+        "2 pixels",
+        "NaN, infinite or negative",
+        at.as_str(),
+    ] {
+        assert!(
+            error.contains(expected),
+            "'{expected}' missing from: {error}"
+        );
+    }
+    assert_eq!(doc.views()[0].canvas().layers().coverage, coverage);
 }

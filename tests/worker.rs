@@ -360,7 +360,18 @@ fn analyses_answer_from_the_state_when_asked() {
                 assert!(image == burnish::scene::render_table(&gbuffer, &table));
                 predicted = true;
             }
-            Analysis::Uncertainty { version, std_dev } => {
+            Analysis::Uncertainty {
+                version,
+                table: per_channel,
+                luminance: std_dev,
+            } => {
+                assert!(
+                    per_channel
+                        .pairs()
+                        .iter()
+                        .flatten()
+                        .all(|s| s.is_finite() && *s >= 0.0)
+                );
                 assert_eq!(version, snapshot.version);
                 assert_eq!(std_dev.len(), burnish::table::PAIRS);
                 assert!(std_dev.iter().all(|s| s.is_finite() && *s >= 0.0));

@@ -54,7 +54,7 @@ impl BurnishApp {
             Action::NewSession => doc.new_session(),
             Action::OpenSession(path) => doc.open_session(&path).map(|b| self.brush = b),
             Action::SaveSession(path) => doc.save_session(&path, &self.brush),
-            Action::ImportPainting(path) => doc.import_painting(&path),
+            Action::ImportPainting(path) => doc.import_painting(&path).map(drop),
             Action::ExportGuide(path) => doc.export_guide(&path),
             Action::ExportPainting(path) => doc.export_painting(&path),
             Action::ExportTable(path) => doc.export_brdf(&path, ExportKind::Table),

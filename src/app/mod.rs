@@ -23,7 +23,7 @@ pub use commands::{UiCommand, When};
 pub use preview_panel::{PreviewState, Reference, TableOverlays, TableSource};
 
 use crate::basis::Basis;
-use crate::document::{Document, DocumentConfig, Event};
+use crate::document::{BasisSource, Document, DocumentConfig, Event};
 use crate::paint::{BrushPreset, BrushSettings, load_presets};
 use crate::scene::Scene;
 use crate::session::BasisSettings;
@@ -147,7 +147,7 @@ impl BurnishApp {
     /// The app without a window (the state the UI drives); `new` adds the GPU preview.
     pub fn headless(config: AppConfig) -> Self {
         let doc = Document::new(DocumentConfig {
-            basis: config.basis,
+            basis: config.basis.map_or(BasisSource::Load, BasisSource::Given),
             basis_cache: config.basis_cache,
             basis_settings: config.basis_settings,
             autosave: config.autosave,

@@ -100,6 +100,21 @@ impl BasisJob {
         }
     }
 
+    /// A job whose basis the caller hands over later (see `Document::set_basis`).
+    pub fn awaiting_caller(spec: BasisSpec) -> Self {
+        Self {
+            spec,
+            shared: Arc::new(Mutex::new(JobState {
+                status: BasisStatus::Working {
+                    stage: "waiting for the basis".into(),
+                    fraction: 0.0,
+                },
+                result: None,
+            })),
+            thread: None,
+        }
+    }
+
     pub fn spec(&self) -> &BasisSpec {
         &self.spec
     }

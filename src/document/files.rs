@@ -7,7 +7,10 @@ use super::{Document, Event, ViewDoc};
 use crate::export::{ExportOptions, Format, export, load_table};
 use crate::image_io::RgbImage;
 use crate::paint::BrushSettings;
-use crate::scene::{GBuffer, PaintRange, Scene, paint_range_of, render_table, write_png};
+use crate::scene::{
+    GBuffer, PaintRange, SampleCounts, Scene, SkipReason, paint_range_of, render_table,
+    sample_pixel_in, write_png,
+};
 use crate::session::{BasisSettings, Session, StartMaterial, ViewSettings};
 use crate::solver::Reconstruction;
 use crate::table::merl::MerlBrdf;
@@ -158,44 +161,65 @@ impl Document {
     /// what was painted lies beside it ([`painting_mask_path`], as
     /// [`Self::export_painting`] writes it and `burnish reconstruct --mask` reads it): then
     /// only its non-black pixels do, and the rest stay unpainted.
-    pub fn import_painting(&mut self, path: &Path) -> crate::Result<()> {
+    pub fn import_painting(&mut self, path: &Path) -> crate::Result<ImportReport> {
+        self.import_painting_with(path, &ImportMask::Beside)
+    }
+
+    /// [`Self::import_painting`] with the pixels that are paint chosen by `mask`. A painted
+    /// object pixel that is NaN, infinite or negative refuses the import (naming the file,
+    /// how many and where the first is) and leaves the canvas as it was.
+    pub fn import_painting_with(
+        &mut self,
+        path: &Path,
+        mask: &ImportMask,
+    ) -> crate::Result<ImportReport> {
         let Some(doc) = self.views.get_mut(self.active) else {
-            return Ok(());
+            return Err(crate::Error::invalid(
+                path,
+                "there is no view to import into",
+            ));
         };
         let resolution = doc.gbuffer.resolution();
         let image = crate::scene::read_painting(path, resolution)?;
-        if image
-            .pixels
-            .iter()
-            .any(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0))
-        {
-            return Err(crate::Error::invalid(
-                path,
-                "the painting has NaN, infinite or negative pixels",
-            ));
-        }
-        let mask_path = painting_mask_path(path);
-        let painted: Option<Vec<bool>> = if mask_path.is_file() {
-            let mask = crate::scene::read_painting(&mask_path, resolution)?;
-            Some(
-                mask.pixels
+        let mask_path = match mask {
+            ImportMask::Beside => Some(painting_mask_path(path)).filter(|p| p.is_file()),
+            ImportMask::Whole => None,
+            ImportMask::File(file) => Some(file.clone()),
+        };
+        let painted: Option<Vec<bool>> = match &mask_path {
+            Some(file) => Some(
+                crate::scene::read_painting(file, resolution)?
+                    .pixels
                     .iter()
                     .map(|p| p.iter().any(|&c| c > 0.0))
                     .collect(),
-            )
-        } else {
-            None
+            ),
+            None => None,
         };
-        doc.import_painting(&image, painted.as_deref())?;
         // An 8-bit file's clipped channels say "at least this bright", as `burnish
         // reconstruct` reads the same file.
-        doc.settings.paint_range = paint_range_of(path);
-        let range = doc.settings.paint_range;
+        let range = paint_range_of(path);
+        let report = ImportReport::of(&doc.gbuffer, &image, painted.as_deref(), range, mask_path);
+        if report.bad_paint > 0 {
+            let first = report.first_bad_pixel.unwrap_or(0);
+            return Err(crate::Error::invalid(
+                path,
+                format!(
+                    "{} pixels of the object are NaN, infinite or negative (the first at x = {}, \
+                     y = {}); paint them, or leave them out with a mask",
+                    report.bad_paint,
+                    first % resolution,
+                    first / resolution
+                ),
+            ));
+        }
+        doc.import_painting(&image, painted.as_deref())?;
+        doc.settings.paint_range = range;
         self.worker.send(doc.paint_command());
         self.canvas_revision += 1;
         self.touch();
-        let masked = match &painted {
-            Some(_) => format!(", painted where {} says", mask_path.display()),
+        let masked = match &report.mask {
+            Some(file) => format!(", painted where {} says", file.display()),
             None => String::new(),
         };
         self.notify(match range {
@@ -205,7 +229,7 @@ impl Document {
             ),
             PaintRange::Hdr => format!("imported {}{masked}", path.display()),
         });
-        Ok(())
+        Ok(report)
     }
 
     pub fn export_guide(&mut self, path: &Path) -> crate::Result<()> {
@@ -340,6 +364,12 @@ impl Document {
             .map_err(|e| crate::Error::io(path, e))
     }
 
+    /// Makes `start` the material the painting edits at once: [`Self::start_from`] for a
+    /// caller that read the file itself (the command line reads it before any slow work).
+    pub fn set_start_material(&mut self, start: StartMaterial) -> crate::Result<()> {
+        self.set_start(start, Vec::new())
+    }
+
     /// Takes the file jobs that finished: notices for exports, and a starting material put
     /// in place.
     pub(super) fn take_file_jobs(&mut self) {
@@ -417,6 +447,86 @@ impl Document {
         if self.start_material.take().is_some() {
             self.worker.send(Command::SetStartMaterial(None));
         }
+    }
+}
+
+/// Which pixels of an imported painting are paint.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum ImportMask {
+    /// Those the mask beside the painting ([`painting_mask_path`]) marks, where there is
+    /// one; otherwise every object pixel (the app's import).
+    #[default]
+    Beside,
+    /// Every object pixel.
+    Whole,
+    /// The non-black pixels of this image (PNG or EXR of the painting's size).
+    File(PathBuf),
+}
+
+/// What an imported painting holds, pixel by pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportReport {
+    /// Every pixel by what it gives, judged by geometry first: background, shadow and
+    /// grazing pixels whatever the mask says; then, of the painted ones, samples (`used`).
+    /// Usable pixels the mask leaves unpainted are counted in [`Self::unpainted`] only.
+    pub counts: SampleCounts,
+    /// Usable pixels the mask leaves unpainted.
+    pub unpainted: usize,
+    /// Samples with a clipped channel, read as "at least this bright" (8-bit files).
+    pub clipped: usize,
+    /// Painted object pixels that are NaN, infinite or negative (the import refuses them),
+    /// and the first of them.
+    pub bad_paint: usize,
+    pub first_bad_pixel: Option<usize>,
+    /// What the values can express, by the file's kind.
+    pub range: PaintRange,
+    /// The mask that chose the painted pixels, if one did.
+    pub mask: Option<PathBuf>,
+}
+
+impl ImportReport {
+    fn of(
+        gbuffer: &GBuffer,
+        image: &RgbImage,
+        painted: Option<&[bool]>,
+        range: PaintRange,
+        mask: Option<PathBuf>,
+    ) -> Self {
+        let mut report = Self {
+            counts: SampleCounts::default(),
+            unpainted: 0,
+            clipped: 0,
+            bad_paint: 0,
+            first_bad_pixel: None,
+            range,
+            mask,
+        };
+        for (i, &colour) in image.pixels.iter().enumerate() {
+            let is_painted = painted.is_none_or(|p| p[i]);
+            if is_painted
+                && gbuffer.at(i).is_some()
+                && colour.iter().any(|c| !c.is_finite() || *c < 0.0)
+            {
+                report.bad_paint += 1;
+                report.first_bad_pixel.get_or_insert(i);
+            }
+            let outcome = sample_pixel_in(gbuffer, i, colour, range);
+            let geometry_skip = matches!(
+                outcome,
+                Err(SkipReason::Background | SkipReason::Shadow | SkipReason::Grazing)
+            );
+            if !geometry_skip && !is_painted {
+                report.unpainted += 1;
+                continue;
+            }
+            if let Ok(sample) = &outcome
+                && sample.bounds != crate::solver::EXACT
+            {
+                report.clipped += 1;
+            }
+            report.counts.add(&outcome);
+        }
+        report
     }
 }
 

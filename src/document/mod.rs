@@ -13,14 +13,15 @@ mod files;
 mod view;
 
 pub use basis_job::{BasisJob, BasisStatus};
-pub use files::{ExportKind, painting_mask_path};
+pub use files::{ExportKind, ImportMask, ImportReport, painting_mask_path};
 pub use view::{Base, ViewDoc, object_mask, propose_view};
 
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
+use crate::next_view::RankedView;
 use crate::paint::{BrushKind, BrushSettings, Canvas, CanvasChanges, PixelRect, UnpaintedPixels};
 use crate::scene::{PaintRange, Scene};
 use crate::session::{Autosaver, BasisSettings, RecoveryInfo, StartMaterial, ViewSettings};
-use crate::solver::BinChange;
+use crate::solver::{BinChange, PriorMean};
 use crate::table::{PairIndex, SymTable};
 use crate::worker::{Analysis, AnalysisKind, Command, Snapshot, ViewId, Worker};
 use std::collections::{HashMap, HashSet};
@@ -71,10 +72,20 @@ pub struct Polled {
     pub uncertainty: Option<Arc<[f32]>>,
 }
 
+/// Where a document's basis comes from.
+pub enum BasisSource {
+    /// Loaded from the cache or built, in the background (the app).
+    Load,
+    /// This one, at once (tests).
+    Given(Arc<Basis>),
+    /// The caller hands it over with [`Document::set_basis`] once it has it (the command
+    /// line, which reports loading it itself).
+    Later,
+}
+
 /// How a document starts.
 pub struct DocumentConfig {
-    /// A basis to use at once (tests); otherwise it is loaded or built in the background.
-    pub basis: Option<Arc<Basis>>,
+    pub basis: BasisSource,
     /// The folder of the basis cache; `None`: [`BasisCache::default_location`].
     pub basis_cache: Option<PathBuf>,
     pub basis_settings: BasisSettings,
@@ -119,11 +130,16 @@ pub struct Document {
     awaiting_prediction: HashSet<ViewId>,
     /// The ranking of candidate views asked for by "Suggest next view", until it arrives.
     pending_suggestion: Option<u64>,
+    /// A ranking a headless caller waits for ([`Self::settled_ranking`]), and the answer
+    /// once it arrived.
+    caller_ranking: Option<(u64, Option<Vec<RankedView>>)>,
     next_request: u64,
     /// The snapshot version the uncertainty was estimated for, and whether an estimate is
     /// on its way.
     uncertainty_version: Option<u64>,
     uncertainty_pending: bool,
+    /// The newest estimate, per table entry and channel (of `uncertainty_version`).
+    uncertainty_table: Option<Arc<SymTable>>,
     /// Counts changes after which the active canvas must be shown afresh (the views or the
     /// active one changed, or a canvas was replaced as a whole).
     canvas_revision: u64,
@@ -138,8 +154,11 @@ impl Document {
         let worker = Worker::spawn(settings.policy, settings.regularization);
         let spec = basis_spec(&settings);
         let basis_job = match config.basis {
-            Some(basis) => BasisJob::ready(spec, basis),
-            None => BasisJob::start(spec, config.basis_cache.clone().map(BasisCache::at)),
+            BasisSource::Given(basis) => BasisJob::ready(spec, basis),
+            BasisSource::Load => {
+                BasisJob::start(spec, config.basis_cache.clone().map(BasisCache::at))
+            }
+            BasisSource::Later => BasisJob::awaiting_caller(spec),
         };
         let autosaver = config
             .autosave
@@ -172,9 +191,11 @@ impl Document {
             file_jobs: file_jobs::FileJobs::default(),
             awaiting_prediction: HashSet::new(),
             pending_suggestion: None,
+            caller_ranking: None,
             next_request: 0,
             uncertainty_version: None,
             uncertainty_pending: false,
+            uncertainty_table: None,
             canvas_revision: 0,
             events: Vec::new(),
         };
@@ -412,6 +433,13 @@ impl Document {
         }
     }
 
+    /// Where the prior is centred without a starting material (`burnish reconstruct
+    /// --prior-mean`); sessions do not keep it, a new document starts from the calibrated
+    /// one.
+    pub fn set_prior_mean(&mut self, mean: PriorMean) {
+        self.worker.send(Command::SetPriorMean(mean));
+    }
+
     /// Whether a new view still waits for the prediction its canvas starts from.
     pub fn predictions_pending(&self) -> bool {
         !self.awaiting_prediction.is_empty()
@@ -474,15 +502,26 @@ impl Document {
                 }
                 self.notify("no BRDF to predict yet: the view shows the guide");
             }
-            Analysis::Uncertainty { version, std_dev } => {
+            Analysis::Uncertainty {
+                version,
+                table,
+                luminance,
+            } => {
                 self.uncertainty_pending = false;
                 self.uncertainty_version = Some(version);
-                polled.uncertainty = Some(std_dev);
+                self.uncertainty_table = Some(table);
+                polled.uncertainty = Some(luminance);
             }
             Analysis::NoBasis {
                 what: AnalysisKind::Uncertainty,
             } => self.uncertainty_pending = false,
             Analysis::RankedViews { request, views, .. } => {
+                if let Some((asked, answer)) = &mut self.caller_ranking
+                    && *asked == request
+                {
+                    *answer = Some(views);
+                    return;
+                }
                 if self.pending_suggestion != Some(request) {
                     return;
                 }
@@ -510,6 +549,13 @@ impl Document {
             Analysis::NoBasis {
                 what: AnalysisKind::RankedViews { request },
             } => {
+                if self
+                    .caller_ranking
+                    .as_ref()
+                    .is_some_and(|(r, _)| *r == request)
+                {
+                    self.caller_ranking = None;
+                }
                 if self.pending_suggestion == Some(request) {
                     self.pending_suggestion = None;
                     self.notify_error("no views to suggest until the basis is ready");
@@ -543,6 +589,46 @@ impl Document {
         ));
     }
 
+    /// [`Self::settle`], then `candidates` views around the active one, ranked by what
+    /// painting them would teach, best first (as `burnish suggest` lists them; "Suggest
+    /// next view" adds the best instead). `None` on a timeout or without a basis.
+    pub fn settled_ranking(
+        &mut self,
+        candidates: usize,
+        timeout: Duration,
+    ) -> Option<Vec<RankedView>> {
+        let deadline = Instant::now() + timeout;
+        self.settle(timeout)?;
+        self.basis.as_ref()?;
+        let doc = self.active_view()?;
+        let (base, object) = (Box::new(doc.scene().clone()), doc.object.clone());
+        let request = self.next_request;
+        self.next_request += 1;
+        self.worker.send(Command::RankViews {
+            request,
+            base,
+            object,
+            candidates,
+        });
+        self.caller_ranking = Some((request, None));
+        loop {
+            match &mut self.caller_ranking {
+                Some((_, answer @ Some(_))) => {
+                    let views = answer.take();
+                    self.caller_ranking = None;
+                    return views;
+                }
+                Some(_) if Instant::now() < deadline => {}
+                _ => {
+                    self.caller_ranking = None;
+                    return None;
+                }
+            }
+            std::thread::sleep(Duration::from_millis(2));
+            self.poll();
+        }
+    }
+
     /// Whether a "Suggest next view" ranking is still on its way.
     pub fn suggestion_pending(&self) -> bool {
         self.pending_suggestion.is_some()
@@ -560,6 +646,55 @@ impl Document {
         }
         self.worker.send(Command::EstimateUncertainty);
         self.uncertainty_pending = true;
+    }
+
+    /// The BRDF as it stands once every background job the document started has landed
+    /// (the basis, the predictions new views start from, file jobs) and the worker has
+    /// solved everything sent to it, its prior's mean fitted to it: what a headless driver
+    /// (the command line, a script) reads. `None` if that takes longer than `timeout`.
+    pub fn settle(&mut self, timeout: Duration) -> Option<Arc<Snapshot>> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            self.poll();
+            if !self.basis_working() && !self.predictions_pending() && !self.file_jobs_pending() {
+                break;
+            }
+            if Instant::now() >= deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let snapshot = self
+            .worker
+            .sync(deadline.saturating_duration_since(Instant::now()))?;
+        self.poll();
+        Some(snapshot)
+    }
+
+    /// [`Self::settle`], then the posterior standard deviation of ρ per table entry and
+    /// channel for that BRDF, waited for. `None` on a timeout or without a basis.
+    pub fn settled_uncertainty(&mut self, timeout: Duration) -> Option<Arc<SymTable>> {
+        let deadline = Instant::now() + timeout;
+        let snapshot = self.settle(timeout)?;
+        self.basis.as_ref()?;
+        loop {
+            if let Some(table) = &self.uncertainty_table
+                && self.uncertainty_version >= Some(snapshot.version)
+            {
+                return Some(table.clone());
+            }
+            // (Re)ask while no estimate of this BRDF is on its way: one asked for earlier may
+            // arrive for an older one.
+            if !self.uncertainty_pending {
+                self.worker.send(Command::EstimateUncertainty);
+                self.uncertainty_pending = true;
+            }
+            if Instant::now() >= deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+            self.poll();
+        }
     }
 
     /// Whether an uncertainty estimate is on its way.
@@ -695,6 +830,13 @@ impl Document {
                 ));
             }
         }
+    }
+
+    /// Hands over the basis of a document started with [`BasisSource::Later`] (or replaces
+    /// the one there is): the worker solves with it from now on.
+    pub fn set_basis(&mut self, basis: Arc<Basis>) {
+        self.basis_job = BasisJob::ready(basis_spec(&self.basis_settings), basis);
+        self.poll_basis();
     }
 
     /// Whether the basis is still being loaded or built.

@@ -103,7 +103,8 @@ pub struct SampleCounts {
 }
 
 impl SampleCounts {
-    fn add(&mut self, outcome: &std::result::Result<Sample, SkipReason>) {
+    /// Counts one pixel's outcome.
+    pub fn add(&mut self, outcome: &std::result::Result<Sample, SkipReason>) {
         match outcome {
             Ok(_) => self.used += 1,
             Err(SkipReason::Background) => self.background += 1,

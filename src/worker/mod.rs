@@ -123,8 +123,14 @@ pub enum Analysis {
         gbuffer: Arc<GBuffer>,
         image: RgbImage,
     },
-    /// Per unordered pair, the posterior standard deviation of the luminance of ρ.
-    Uncertainty { version: u64, std_dev: Arc<[f32]> },
+    /// The posterior standard deviation of ρ: per table entry and channel (`table`, as
+    /// `burnish reconstruct --uncertainty` writes it) and, per unordered pair, of the
+    /// luminance (`luminance`, the app's overlay).
+    Uncertainty {
+        version: u64,
+        table: Arc<SymTable>,
+        luminance: Arc<[f32]>,
+    },
     /// Candidate views, best first.
     RankedViews {
         request: u64,
@@ -917,12 +923,16 @@ fn run_job(job: Job) -> Analysis {
             let table = solver.posterior().table_std_dev(&reconstruction);
             // Every channel's deviation is the same mapped-domain deviation times that
             // channel's slope, so the luminance's deviation is their weighted sum.
-            let std_dev = table
+            let luminance = table
                 .pairs()
                 .iter()
                 .map(|sd| (0.2126 * sd[0] + 0.7152 * sd[1] + 0.0722 * sd[2]).min(f32::MAX))
                 .collect();
-            Analysis::Uncertainty { version, std_dev }
+            Analysis::Uncertainty {
+                version,
+                table: Arc::new(table),
+                luminance,
+            }
         }
         Job::Rank {
             request,

@@ -482,8 +482,11 @@ fn bad_input_names_the_file_and_the_problem() {
     assert_eq!(std::fs::read(&blocker).unwrap(), b"a file, not a folder");
 }
 
+/// Paint that is NaN, infinite or negative on the object refuses the painting, naming the
+/// file, how many pixels and where the first is, as the app's import does; in the background
+/// (which says nothing) it is ignored.
 #[test]
-fn nan_and_negative_paint_is_reported_and_skipped() {
+fn nan_and_negative_paint_on_the_object_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let scene = write(d, "s.toml", b"resolution = 64\n");
@@ -492,12 +495,9 @@ fn nan_and_negative_paint_is_reported_and_skipped() {
         height: 64,
         pixels: vec![[0.3, 0.2, 0.1]; 64 * 64],
     };
-    for i in (0..64 * 64).step_by(7) {
-        painting.pixels[i] = if i % 2 == 0 {
-            [f32::NAN, 0.0, 0.0]
-        } else {
-            [-1.0, 0.5, 0.5]
-        };
+    // The corners lie outside the default sphere.
+    for i in [0, 63, 64 * 63, 64 * 64 - 1] {
+        painting.pixels[i] = [f32::NAN, -1.0, f32::INFINITY];
     }
     let exr = d.join("paint.exr");
     write_exr_rgb(&exr, &painting).unwrap();
@@ -507,14 +507,30 @@ fn nan_and_negative_paint_is_reported_and_skipped() {
     args.extend(SMALL_BASIS);
     let o = burnish(&args, &d.join("cache"));
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let stderr = text(&o.stderr);
-    assert!(
-        stderr.contains("paint.exr") && stderr.contains("NaN, infinite or negative"),
-        "{stderr}"
-    );
     assert!(
         burnish::table::exr_file::read_table_exr(&table)
             .unwrap()
             .is_physical()
     );
+    std::fs::remove_file(&table).unwrap();
+
+    // Two pixels on the object, the first at (20, 30).
+    painting.pixels[30 * 64 + 20] = [f32::NAN, 0.0, 0.0];
+    painting.pixels[32 * 64 + 32] = [-1.0, 0.5, 0.5];
+    write_exr_rgb(&exr, &painting).unwrap();
+    let o = burnish(&args, &d.join("cache"));
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stdout));
+    let stderr = text(&o.stderr);
+    for expected in [
+        "paint.exr",
+        "2 pixels",
+        "NaN, infinite or negative",
+        "x = 20, y = 30",
+    ] {
+        assert!(
+            stderr.contains(expected),
+            "'{expected}' missing from: {stderr}"
+        );
+    }
+    assert!(!table.exists(), "no table from a refused painting");
 }

@@ -1,21 +1,21 @@
 //! `burnish reconstruct`: paintings of one or more views → a full BRDF table.
 
-use super::scene_cmds::scene_gbuffer;
-use crate::basis::OracleProjector;
 use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
+use crate::document::{BasisSource, Document, DocumentConfig, ImportMask};
 use crate::export::load_table;
 use crate::materials::database::DatabaseSpec;
 use crate::metrics::evaluate;
 use crate::paint::UnpaintedPixels;
-use crate::scene::{Scene, read_painting, samples_from_file};
-use crate::solver::{
-    BinChange, Policy, PriorMean, PriorModel, Reconstruction, Regularization, Solver, SparseTable,
-};
+use crate::scene::Scene;
+use crate::session::{BasisSettings, StartMaterial};
+use crate::solver::{Policy, PriorMean, PriorModel, Reconstruction, Regularization};
+use crate::table::SymTable;
 use crate::table::{exr_file::write_table_exr, merl::MerlBrdf};
-use anyhow::bail;
+use crate::worker::Snapshot;
+use anyhow::{Context, bail};
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Which basis to use; every option here keys the basis cache.
 #[derive(clap::Args, Debug, Clone)]
@@ -35,6 +35,16 @@ impl BasisOptions {
         let mut spec = BasisSpec::default_for(self.components as usize);
         spec.database.size = self.materials as usize;
         spec
+    }
+
+    /// The document's settings for this basis, solved with `regularization` and `policy`.
+    pub fn settings(&self, regularization: Regularization, policy: Policy) -> BasisSettings {
+        BasisSettings {
+            components: self.components as usize,
+            materials: self.materials as usize,
+            regularization,
+            policy,
+        }
     }
 }
 
@@ -112,68 +122,66 @@ pub struct ReconstructArgs {
     pub masks: Vec<PathBuf>,
 }
 
-/// Paintings of views, binned: the sparse table, the bin changes that built it, the scenes.
-pub(crate) struct PaintedViews {
-    pub table: SparseTable,
-    pub changes: Vec<BinChange>,
-    pub scenes: Vec<Scene>,
+/// How long the command line waits for the worker to solve what it was given (a solve and
+/// a fit of the prior's mean take seconds at most; this only guards against a hang).
+pub(crate) const SOLVE_TIMEOUT: Duration = Duration::from_secs(600);
+
+/// How `reconstruct` and `suggest` turn paintings into a BRDF: the same document the app
+/// edits, without a window.
+pub(crate) struct PaintingSettings {
+    pub basis: BasisSettings,
+    pub prior_mean: PriorMean,
+    pub unpainted: UnpaintedPixels,
 }
 
-/// Reads every `--view`, every lit object pixel a sample, reporting what each gave; an error
-/// names the file and the problem.
-pub(crate) fn read_views(views: &[ViewArg], policy: Policy) -> anyhow::Result<PaintedViews> {
-    read_views_masked(views, policy, UnpaintedPixels::CountAsShown, &[])
-}
-
-/// [`read_views`] under the rule `unpainted`, `masks[i]` saying which pixels of view i were
-/// painted (needed for every view under [`UnpaintedPixels::Ignore`]).
-pub(crate) fn read_views_masked(
+/// A headless document with a view of each `--view`'s scene, its painting imported as the
+/// app imports one (every object pixel paint, or under `--unpainted ignore` those `masks`
+/// marks), reporting what each gave. Files are read before the basis loads, so a bad one
+/// fails at once; an error names the file and the problem.
+pub(crate) fn paint_views(
     views: &[ViewArg],
-    policy: Policy,
-    unpainted: UnpaintedPixels,
     masks: &[PathBuf],
-) -> anyhow::Result<PaintedViews> {
-    if unpainted == UnpaintedPixels::Ignore && masks.len() != views.len() {
+    settings: &PaintingSettings,
+) -> anyhow::Result<Document> {
+    if settings.unpainted == UnpaintedPixels::Ignore && masks.len() != views.len() {
         bail!(
             "--unpainted ignore needs one --mask per --view saying what was painted ({} views, {} masks)",
             views.len(),
             masks.len()
         );
     }
-    let mut table = SparseTable::new(policy);
-    let mut changes = Vec::new();
-    let mut scenes = Vec::new();
+    let mut doc = Document::new(DocumentConfig {
+        basis: BasisSource::Later,
+        basis_cache: None,
+        basis_settings: settings.basis,
+        autosave: false,
+        recovery_file: None,
+    });
+    doc.set_prior_mean(settings.prior_mean);
+    let mut used = 0;
     for (view, arg) in views.iter().enumerate() {
         let start = Instant::now();
-        let (scene, gbuffer) = scene_gbuffer(&arg.scene)?;
+        let scene = Scene::load(&arg.scene)?;
+        doc.add_view(scene)
+            .with_context(|| format!("loading the object of scene {}", arg.scene.display()))?;
+        doc.set_unpainted(view, settings.unpainted);
         let geometry_ms = start.elapsed().as_secs_f64() * 1e3;
-        let mut set = samples_from_file(&gbuffer, &arg.painting)?;
-        if unpainted == UnpaintedPixels::Ignore {
-            let mask = read_painting(&masks[view], gbuffer.resolution())?;
-            let before = set.samples.len();
-            set.samples.retain(|s| {
-                let p = mask.pixels[s.pixel as usize];
-                p.iter().any(|&c| c > 0.0)
-            });
-            let unpainted = before - set.samples.len();
-            set.counts.used -= unpainted;
+        let mask = match settings.unpainted {
+            UnpaintedPixels::Ignore => ImportMask::File(masks[view].clone()),
+            UnpaintedPixels::CountAsShown => ImportMask::Whole,
+        };
+        let report = doc.import_painting_with(&arg.painting, &mask)?;
+        let c = report.counts;
+        used += c.used;
+        if let Some(mask) = &report.mask {
             println!(
-                "  {unpainted} unpainted pixels ignored ({})",
-                masks[view].display()
+                "  {} unpainted pixels ignored ({})",
+                report.unpainted,
+                mask.display()
             );
         }
-        set.insert_into(view as u32, &mut table, &mut changes)
-            .map_err(|(pixel, e)| {
-                anyhow::anyhow!("{}: pixel {pixel}: {e}", arg.painting.display())
-            })?;
-        let c = set.counts;
-        let bounded = set
-            .samples
-            .iter()
-            .filter(|s| s.bounds != crate::solver::EXACT)
-            .count();
         println!(
-            "view {view}: {} = {}\n  samples used {}, skipped {} (background {}, shadow {}, grazing {}, invalid paint {}){}\n  geometry {geometry_ms:.0} ms, painting {:.0} ms",
+            "view {view}: {} = {}\n  samples used {}, skipped {} (background {}, shadow {}, grazing {}){}\n  geometry {geometry_ms:.0} ms, painting {:.0} ms",
             arg.scene.display(),
             arg.painting.display(),
             c.used,
@@ -181,33 +189,20 @@ pub(crate) fn read_views_masked(
             c.background,
             c.shadow,
             c.grazing,
-            c.invalid,
-            if bounded > 0 {
-                format!("; {bounded} clipped (used as bounds)")
+            if report.clipped > 0 {
+                format!("; {} clipped (used as bounds)", report.clipped)
             } else {
                 String::new()
             },
             start.elapsed().as_secs_f64() * 1e3 - geometry_ms
         );
-        if c.invalid > 0 {
-            eprintln!(
-                "warning: {}: {} pixels are NaN, infinite or negative and were skipped",
-                arg.painting.display(),
-                c.invalid
-            );
-        }
-        scenes.push(scene);
     }
-    if table.sample_count() == 0 {
+    if used == 0 {
         bail!(
             "no painted pixel gave a sample: every pixel is background, in shadow or at a grazing angle"
         );
     }
-    Ok(PaintedViews {
-        table,
-        changes,
-        scenes,
-    })
+    Ok(doc)
 }
 
 /// The basis of `options`, from the cache or built (with a progress bar), reported.
@@ -231,80 +226,79 @@ pub(crate) fn load_basis(options: &BasisOptions) -> anyhow::Result<Arc<Basis>> {
     Ok(basis)
 }
 
-/// The projection of a starting material onto the basis, reported with how much of it the
-/// basis can hold: the paintings edit this projection.
-pub(crate) fn start_coefficients(
-    basis: &Arc<Basis>,
-    path: &std::path::Path,
-    material: &crate::table::SymTable,
-) -> Vec<[f64; 3]> {
+/// Hands `doc` its basis and waits for the worker to solve every view, reported.
+pub(crate) fn solve_document(
+    doc: &mut Document,
+    basis: Arc<Basis>,
+) -> anyhow::Result<Arc<Snapshot>> {
     let start = Instant::now();
-    let coefficients = OracleProjector::new(basis.clone()).project(material);
-    let projected = Reconstruction::new(basis.clone(), &coefficients).materialize();
+    doc.set_basis(basis);
+    let snapshot = doc
+        .settle(SOLVE_TIMEOUT)
+        .context("the solver did not answer")?;
+    let stats = snapshot.stats;
+    println!(
+        "solve: {} observed bins, {} inconsistent, α = {:.3e}, condition number {:.3e}, {:.1} ms",
+        stats.observed_bins,
+        stats.inconsistent_bins,
+        stats.alpha,
+        stats.condition_number,
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    Ok(snapshot)
+}
+
+/// Says how much of the starting material the basis holds: the prior's mean is its
+/// projection, which the paintings edit.
+fn report_start(path: &std::path::Path, material: &SymTable, snapshot: &Snapshot) {
+    let (Some(basis), Some(mean)) = (&snapshot.basis, &snapshot.prior_mean) else {
+        return;
+    };
+    let projected = Reconstruction::new(basis.clone(), mean).materialize();
     let fidelity = evaluate(material, &projected);
     println!(
-        "start: {} projected onto the basis in {:.0} ms (sphere renders {:.1} dB PSNR, \
-         relative RMSE {:.1}%)",
+        "start: {} projected onto the basis (sphere renders {:.1} dB PSNR, relative RMSE {:.1}%)",
         path.display(),
-        start.elapsed().as_secs_f64() * 1e3,
         fidelity.median_psnr_db,
         100.0 * fidelity.relative_rmse
     );
-    coefficients
 }
 
-/// The solver with every painted bin applied, on the prior mean `start` when one is given.
-pub(crate) fn solve_views(
-    basis: Arc<Basis>,
-    regularization: Regularization,
-    mean: PriorMean,
-    start_mean: Option<Vec<[f64; 3]>>,
-    painted: &PaintedViews,
-) -> Solver {
-    let start = Instant::now();
-    let model = PriorModel {
-        mean,
-        ..PriorModel::CALIBRATED
-    };
-    let mut solver = Solver::with_model(basis, regularization, model);
-    solver.set_prior_mean(start_mean);
-    solver.apply_all(&painted.changes);
-    solver.refit_prior_mean();
-    let solution = solver.solve();
-    println!(
-        "solve: {} observed bins, {} inconsistent, α = {:.3e}, condition number {:.3e}, {:.1} ms",
-        painted.table.observed_count(),
-        painted.table.inconsistent_count(),
-        solution.alpha,
-        solution.condition_number,
-        start.elapsed().as_secs_f64() * 1e3
-    );
-    solver
+impl ReconstructArgs {
+    fn painting_settings(&self) -> PaintingSettings {
+        PaintingSettings {
+            basis: self.basis.settings(self.lambda, self.policy),
+            prior_mean: self.prior_mean,
+            unpainted: self.unpainted,
+        }
+    }
 }
 
 pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     let total = Instant::now();
     // Read the starting material first: a bad file fails before any slow work.
     let start_material = match &args.start {
-        Some(path) => Some((path, load_table(path)?)),
+        Some(path) => Some((path, Arc::new(load_table(path)?))),
         None => None,
     };
-    let painted = read_views_masked(&args.views, args.policy, args.unpainted, &args.masks)?;
+    let mut doc = paint_views(&args.views, &args.masks, &args.painting_settings())?;
+    if let Some((path, table)) = &start_material {
+        doc.set_start_material(StartMaterial {
+            name: path.display().to_string(),
+            source: Some(path.to_path_buf()),
+            table: table.clone(),
+        })?;
+    }
     let basis = load_basis(&args.basis)?;
-    let start_mean = start_material
-        .as_ref()
-        .map(|(path, material)| start_coefficients(&basis, path, material));
-    let solver = solve_views(
-        basis.clone(),
-        args.lambda,
-        args.prior_mean,
-        start_mean,
-        &painted,
-    );
-    let solution = solver.solve();
+    let snapshot = solve_document(&mut doc, basis)?;
+    if let Some((path, table)) = &start_material {
+        report_start(path, table, &snapshot);
+    }
 
     let start = Instant::now();
-    let reconstruction = solution.reconstruction(basis);
+    let reconstruction = snapshot
+        .reconstruction()
+        .context("the solver has no basis to reconstruct with")?;
     let full = reconstruction.materialize();
     let materialize_ms = start.elapsed().as_secs_f64() * 1e3;
     let start = Instant::now();
@@ -327,7 +321,9 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.uncertainty {
         let start = Instant::now();
-        let sd = solver.posterior().table_std_dev(&reconstruction);
+        let sd = doc
+            .settled_uncertainty(SOLVE_TIMEOUT)
+            .context("the uncertainty estimate did not arrive")?;
         super::ensure_parent(path)?;
         write_table_exr(path, &sd)?;
         println!(

@@ -1,8 +1,10 @@
 //! `burnish suggest`: which view to paint next, from the paintings so far.
 
-use super::reconstruct_cmd::{BasisOptions, ViewArg, load_basis, read_views, solve_views};
-use crate::next_view::{CANDIDATE_RESOLUTION, candidate_scenes, rank_views};
-use crate::scene::Object;
+use super::reconstruct_cmd::{
+    BasisOptions, PaintingSettings, SOLVE_TIMEOUT, ViewArg, load_basis, paint_views, solve_document,
+};
+use crate::next_view::CANDIDATE_RESOLUTION;
+use crate::paint::UnpaintedPixels;
 use crate::solver::{Policy, PriorMean, PriorModel, Regularization};
 use anyhow::Context;
 use std::path::PathBuf;
@@ -40,26 +42,19 @@ pub struct SuggestArgs {
 }
 
 pub fn run(args: &SuggestArgs) -> anyhow::Result<()> {
-    let painted = read_views(&args.views, Policy::Mean)?;
+    let settings = PaintingSettings {
+        basis: args.basis.settings(args.lambda, Policy::Mean),
+        prior_mean: args.prior_mean,
+        unpainted: UnpaintedPixels::CountAsShown,
+    };
+    let mut doc = paint_views(&args.views, &[], &settings)?;
     let basis = load_basis(&args.basis)?;
-    let solver = solve_views(basis, args.lambda, args.prior_mean, None, &painted);
-    let base = painted
-        .scenes
-        .last()
-        .expect("read_views reads at least one view")
-        .clone();
-    let object = Object::load(&base.object_source()).with_context(|| {
-        format!(
-            "loading the object of scene {}",
-            args.views
-                .last()
-                .map_or(String::new(), |v| v.scene.display().to_string())
-        )
-    })?;
+    solve_document(&mut doc, basis)?;
     let start = Instant::now();
-    let candidates = candidate_scenes(&base, args.candidates as usize);
-    let observed = painted.table.observed().map(|(pair, _)| pair).collect();
-    let ranked = rank_views(&solver, &object, &candidates, &observed);
+    // The document ranks candidates around its active view: the last one added.
+    let ranked = doc
+        .settled_ranking(args.candidates as usize, SOLVE_TIMEOUT)
+        .context("the ranking of candidate views did not arrive")?;
     println!(
         "ranked {} candidates (bins found at {CANDIDATE_RESOLUTION}²) in {:.1} s",
         ranked.len(),

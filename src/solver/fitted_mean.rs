@@ -25,6 +25,7 @@
 //! the command line reach the same reference from the same bins.
 
 use super::analytic_fit::{FitOptions, LambertMicrofacet, fit_lambert_microfacet_bounded};
+use super::prior::PriorMean;
 use super::sparse::Bounds;
 use crate::basis::Basis;
 use crate::materials::tabulate;
@@ -148,3 +149,17 @@ impl MeanFitRequest {
         }
     }
 }
+
+/// The fit's options for the prior's mean `mean`: which lobe shapes it tries.
+pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
+    FitOptions {
+        beckmann_margin: match mean {
+            PriorMean::Fitted {
+                beckmann_margin, ..
+            } => beckmann_margin,
+            PriorMean::Database => None,
+        },
+        ..Default::default()
+    }
+}
+

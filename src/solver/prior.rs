@@ -112,8 +112,8 @@ pub enum PriorMean {
     Fitted {
         margin_nats: f64,
         /// The lobe is GGX unless a Beckmann lobe fits the bins better by this factor in RMS
-        /// log residual, plain and brightness-weighted
-        /// ([`super::analytic_fit::FitOptions::beckmann_margin`]); `None`: GGX only.
+        /// log residual, plain and brightness-weighted (the fit's `beckmann_margin`); `None`:
+        /// GGX only.
         beckmann_margin: Option<f64>,
     },
 }
@@ -153,19 +153,6 @@ impl PriorMean {
         margin_nats: EVIDENCE_MARGIN_NATS,
         beckmann_margin: Some(1.0),
     };
-
-    /// The fit's options for this mean: which lobe shapes it tries.
-    pub fn fit_options(&self) -> super::analytic_fit::FitOptions {
-        super::analytic_fit::FitOptions {
-            beckmann_margin: match self {
-                Self::Fitted {
-                    beckmann_margin, ..
-                } => *beckmann_margin,
-                Self::Database => None,
-            },
-            ..Default::default()
-        }
-    }
 
     pub fn name(&self) -> String {
         match self {

@@ -64,7 +64,7 @@
 
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
-use super::fitted_mean::{FittedMean, FittedReference, MeanFitRequest};
+use super::fitted_mean::{FittedMean, FittedReference, MeanFitRequest, fit_options};
 pub use super::posterior::Posterior;
 pub use super::prior::{Censoring, DEFAULT_ALPHA, PriorMean, PriorModel, Regularization};
 use super::sparse::{BinChange, Bound, Bounds, EXACT};
@@ -307,7 +307,7 @@ impl Solver {
                 .map(|(&pair, obs)| (pair, obs.rho, obs.bounds))
                 .collect(),
             basis: self.basis.clone(),
-            options: self.model.mean.fit_options(),
+            options: fit_options(self.model.mean),
         })
     }
 

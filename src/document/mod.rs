@@ -571,9 +571,19 @@ impl Document {
             self.notify_error("no views to suggest until the basis is ready");
             return;
         }
-        let Some(doc) = self.active_view() else {
+        let Some(request) = self.request_ranking(SUGGEST_CANDIDATES) else {
             return;
         };
+        self.pending_suggestion = Some(request);
+        self.notify(format!(
+            "ranking {SUGGEST_CANDIDATES} candidate views by what they would teach…"
+        ));
+    }
+
+    /// Asks the worker to rank `candidates` views around the active one; `None` without a
+    /// view. Returns the request the answer will carry.
+    fn request_ranking(&mut self, candidates: usize) -> Option<u64> {
+        let doc = self.active_view()?;
         let (base, object) = (Box::new(doc.scene().clone()), doc.object.clone());
         let request = self.next_request;
         self.next_request += 1;
@@ -581,12 +591,9 @@ impl Document {
             request,
             base,
             object,
-            candidates: SUGGEST_CANDIDATES,
+            candidates,
         });
-        self.pending_suggestion = Some(request);
-        self.notify(format!(
-            "ranking {SUGGEST_CANDIDATES} candidate views by what they would teach…"
-        ));
+        Some(request)
     }
 
     /// [`Self::settle`], then `candidates` views around the active one, ranked by what
@@ -600,16 +607,7 @@ impl Document {
         let deadline = Instant::now() + timeout;
         self.settle(timeout)?;
         self.basis.as_ref()?;
-        let doc = self.active_view()?;
-        let (base, object) = (Box::new(doc.scene().clone()), doc.object.clone());
-        let request = self.next_request;
-        self.next_request += 1;
-        self.worker.send(Command::RankViews {
-            request,
-            base,
-            object,
-            candidates,
-        });
+        let request = self.request_ranking(candidates)?;
         self.caller_ranking = Some((request, None));
         loop {
             match &mut self.caller_ranking {

@@ -162,4 +162,3 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
         ..Default::default()
     }
 }
-

@@ -110,13 +110,20 @@ fn reconstruct_like_the_cli(
             &read_painting(painting, RESOLUTION).unwrap(),
         ),
     };
+    solver_of_sets(basis, &[set]).solve().coefficients
+}
+
+/// The default prior's solver with the samples of `sets[i]` binned as view i's.
+fn solver_of_sets(basis: &Arc<Basis>, sets: &[burnish::scene::SampleSet]) -> Solver {
     let mut table = SparseTable::new(Policy::Mean);
     let mut changes = Vec::new();
-    set.insert_into(0, &mut table, &mut changes).unwrap();
+    for (i, set) in sets.iter().enumerate() {
+        set.insert_into(i as u32, &mut table, &mut changes).unwrap();
+    }
     let mut solver = Solver::new(basis.clone(), Regularization::Auto);
     solver.apply_all(&changes);
     solver.refit_prior_mean();
-    solver.solve().coefficients
+    solver
 }
 
 /// The largest difference between two coefficient sets, relative to the largest coefficient.
@@ -240,13 +247,9 @@ fn a_painting_imports_with_the_mask_beside_it() {
     let gbuffer = doc.views()[0].gbuffer().clone();
     let mut set = samples_from_file(&gbuffer, &painting).unwrap();
     set.samples.retain(|s| left(s.pixel as usize));
-    let mut table = SparseTable::new(Policy::Mean);
-    let mut changes = Vec::new();
-    set.insert_into(0, &mut table, &mut changes).unwrap();
-    let mut solver = Solver::new(basis.clone(), Regularization::Auto);
-    solver.apply_all(&changes);
-    solver.refit_prior_mean();
-    let cli = solver.solve().coefficients;
+    let cli = solver_of_sets(&basis, std::slice::from_ref(&set))
+        .solve()
+        .coefficients;
     assert_eq!(snapshot.stats.samples, set.samples.len());
     let worst = relative_difference(&snapshot.coefficients, &cli);
     assert!(worst < 1e-6, "document and CLI differ by {worst}");
@@ -279,16 +282,12 @@ fn a_mask_of_the_wrong_size_refuses_the_import_and_names_the_mask() {
 /// What `reconstruct` solved before it drove a document: every `(scene, painting)` read
 /// whole as view i, binned and solved by the default prior.
 fn solver_of_views(basis: &Arc<Basis>, doc: &Document, paintings: &[&Path]) -> Solver {
-    let mut table = SparseTable::new(Policy::Mean);
-    let mut changes = Vec::new();
-    for (i, painting) in paintings.iter().enumerate() {
-        let set = samples_from_file(doc.views()[i].gbuffer(), painting).unwrap();
-        set.insert_into(i as u32, &mut table, &mut changes).unwrap();
-    }
-    let mut solver = Solver::new(basis.clone(), Regularization::Auto);
-    solver.apply_all(&changes);
-    solver.refit_prior_mean();
-    solver
+    let sets: Vec<_> = paintings
+        .iter()
+        .enumerate()
+        .map(|(i, painting)| samples_from_file(doc.views()[i].gbuffer(), painting).unwrap())
+        .collect();
+    solver_of_sets(basis, &sets)
 }
 
 /// Two views painted elsewhere: the guide of each, tinted, as an EXR in `dir`.

@@ -227,5 +227,31 @@ mod tests {
             [1.0, -1.25, 1.5, -1.75, 2.0],
         ];
         assert_solves(&solves, &expected);
+
+        // The uniform start lies in this b's null space, so the first figure is 0 and the
+        // sign vector (all ones) also solves to 0: column 0 is chosen. Column 0 gives 0.5 and
+        // points at column 2; column 2 gives 1 and its sign vector's solve (0, −1, 1) points
+        // at column 1, but gains nothing over column 2 (max |z| = zᵀx = 1): the other
+        // stopping test. Every |z| is at most 1, so the largest is sought from below.
+        let b = [[0.25, -0.25, 0.0], [-0.25, -0.25, 0.5], [0.0, 0.5, -0.5]];
+        let (estimate, solves) = run(&b);
+        assert_eq!(estimate, 1.0);
+        let third = 1.0 / 3.0;
+        let expected: [[f64; 3]; 7] = [
+            [third; 3],
+            [1.0; 3],
+            [1.0, 0.0, 0.0],
+            [1.0, -1.0, 1.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 1.0, -1.0],
+            [1.0, -1.5, 2.0],
+        ];
+        assert_solves(&solves, &expected);
+
+        // A zero operator: the second figure (0) is no gain over the first, so it stops there.
+        let (estimate, solves) = run(&[[0.0; 3]; 3]);
+        assert_eq!(estimate, 0.0);
+        let expected: [[f64; 3]; 4] = [[third; 3], [1.0; 3], [1.0, 0.0, 0.0], [1.0, -1.5, 2.0]];
+        assert_solves(&solves, &expected);
     }
 }

@@ -15,7 +15,7 @@ use burnish::materials::tabulate;
 use burnish::metrics::table_errors;
 use burnish::scene::{GBuffer, Object, render_brdf, render_table, samples_from_image};
 use burnish::solver::analytic_fit::{
-    Distribution, FitOptions, LambertMicrofacet, fit_lambert_microfacet,
+    Coat, Distribution, FitOptions, LambertMicrofacet, fit_lambert_microfacet,
 };
 use burnish::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{PairIndex, SymTable, pair_multiplicity};
@@ -56,6 +56,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
         alpha_y: 0.35,
         rotation: 0.4,
         specular: 0.8,
+        coat: None,
     };
     let truth = tabulate(&truth_model);
     // Rendered from the table, each sample is exactly the bin-centre value: noise-free.
@@ -108,6 +109,7 @@ fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
             alpha_y: 0.29,
             rotation: 0.0,
             specular: 1.0,
+            coat: None,
         };
         let truth = tabulate(&truth_model);
         let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
@@ -121,6 +123,63 @@ fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
         let errors = table_errors(&truth, &tabulate(&m));
         assert!(errors.relative_rmse < 0.02, "{distribution:?}: {errors:?}");
     }
+}
+
+/// With a clear coat allowed, a coat over a rougher coloured lobe comes back as both lobes
+/// (one lobe settles between them, about 20 times further from the table), while a one-lobe
+/// material keeps one lobe: the coat must earn its place by the margin.
+#[test]
+fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
+    let options = FitOptions {
+        beckmann_margin: Some(1.0),
+        coat_margin: Some(1.25),
+        ..FitOptions::default()
+    };
+    let coated = LambertMicrofacet {
+        albedo: [0.05, 0.08, 0.2],
+        f0: [0.3, 0.4, 0.7],
+        distribution: Distribution::Ggx,
+        alpha_x: 0.3,
+        alpha_y: 0.3,
+        rotation: 0.0,
+        specular: 0.6,
+        coat: Some(Coat {
+            f0: [0.04; 3],
+            alpha: 0.04,
+        }),
+    };
+    let truth = tabulate(&coated);
+    let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
+    let bins: Vec<(PairIndex, [f64; 3])> = table.observed().collect();
+    let one_lobe = fit_lambert_microfacet(&bins, &FitOptions::default());
+    let fit = fit_lambert_microfacet(&bins, &options);
+    let m = fit.model;
+    println!("one lobe {one_lobe:?}\ntwo {fit:?}");
+    let coat = m.coat.expect("a coat for a coated material");
+    let alphas = [coat.alpha, (m.alpha_x * m.alpha_y).sqrt()];
+    let (sharp, broad) = (alphas[0].min(alphas[1]), alphas[0].max(alphas[1]));
+    assert!((coat.f0[0] / 0.04 - 1.0).abs() < 0.1, "{m:?}");
+    assert!((sharp / 0.04 - 1.0).abs() < 0.1, "{m:?}");
+    assert!((broad / 0.3 - 1.0).abs() < 0.1, "{m:?}");
+    let errors = table_errors(&truth, &tabulate(&m));
+    let one_lobe_errors = table_errors(&truth, &tabulate(&one_lobe.model));
+    println!("one lobe {one_lobe_errors:?}\ntwo {errors:?}");
+    assert!(errors.relative_rmse < 0.05, "{errors:?}");
+    assert!(
+        one_lobe_errors.relative_rmse > 4.0 * errors.relative_rmse,
+        "one lobe {one_lobe_errors:?}, two {errors:?}"
+    );
+
+    let plain = LambertMicrofacet {
+        coat: None,
+        ..coated
+    };
+    let truth = tabulate(&plain);
+    let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
+    let bins: Vec<(PairIndex, [f64; 3])> = table.observed().collect();
+    let fit = fit_lambert_microfacet(&bins, &options);
+    assert_eq!(fit.model.coat, None, "{fit:?}");
+    assert!(fit.rms_log_residual < 1e-3, "{fit:?}");
 }
 
 /// Σ_p w_p (u_pᵀx − y_p)² over the whole table: the oracle's own criterion.
@@ -250,6 +309,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             finalists: 1,
             max_iterations: 20,
             beckmann_margin: None,
+            coat_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

@@ -485,6 +485,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         alpha_y: 0.3,
         rotation: 0.0,
         specular: 1.0,
+        coat: None,
     };
     let truth = burnish::materials::tabulate(&truth_brdf);
     let mut table = SparseTable::new(Policy::Mean);
@@ -517,6 +518,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     let always = PriorMean::Fitted {
         margin_nats: f64::NEG_INFINITY,
         beckmann_margin: None,
+        coat_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
     fitted.apply_all(&changes);

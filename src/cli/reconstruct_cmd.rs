@@ -100,7 +100,10 @@ pub struct ReconstructArgs {
     /// paint, when it makes the paint e^M times more likely than the database's mean),
     /// fitted (always) or database (the database's mean material); a fitted one may add
     /// +beckmann (a Beckmann lobe where it fits both the paint and its bright bins better;
-    /// the default, fitted:3+beckmann, as calibrated) or +beckmann:R (R times better).
+    /// the default, fitted:3+beckmann, as calibrated) or +beckmann:R (R times better), and
+    /// +coat or +coat:R (a clear coat over the lobe where it fits better by the factor R;
+    /// not the default: on the calibration's single-lobe materials it fitted a coat that
+    /// extrapolated worse).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -35,7 +35,7 @@ pub struct SuggestArgs {
     /// Regularisation, as for `reconstruct`.
     #[arg(long, default_value = "auto")]
     pub lambda: Regularization,
-    /// Where the prior is centred: database, fitted:M[+beckmann] or fitted (as `reconstruct`
+    /// Where the prior is centred: database, fitted:M[+beckmann][+coat] or fitted (as `reconstruct`
     /// reads it).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,

@@ -42,11 +42,23 @@ pub struct LambertMicrofacet {
     pub alpha_y: f64,
     /// Angle (radians) the anisotropy axes are turned about the normal.
     pub rotation: f64,
+    /// A clear coat over the first lobe ([`FitOptions::coat_margin`]): a second, isotropic lobe
+    /// of the same distribution with its own F0 and roughness.
+    pub coat: Option<Coat>,
+}
+
+/// The clear coat of a [`LambertMicrofacet`]: a lobe with Schlick Fresnel from `f0`, weight 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coat {
+    /// Specular reflectance at normal incidence per channel.
+    pub f0: [f64; 3],
+    /// Isotropic roughness.
+    pub alpha: f64,
 }
 
 impl LambertMicrofacet {
     /// The model as the library's Lambert and microfacet lobe, whose sum [`Brdf::eval`]
-    /// computes through [`Self::eval_from_lobe`].
+    /// computes through [`Self::eval_from_lobes`].
     fn parts(&self) -> (Lambert, Microfacet) {
         (
             Lambert {
@@ -63,11 +75,23 @@ impl LambertMicrofacet {
         )
     }
 
-    /// ρ from the lobe's D·G/(4 cos θ_l cos θ_v) (`dg`, as [`Microfacet::eval_unit_fresnel`]
-    /// gives it) and the half-difference cosine. [`Brdf::eval`] is this, so the fit can reuse
-    /// one `dg` across every parameter but the lobe's shape and still step on `eval`'s bits.
+    /// The coat as the library's microfacet lobe, if there is one.
+    fn coat_part(&self) -> Option<Microfacet> {
+        self.coat.map(|second| {
+            Microfacet::isotropic(
+                self.distribution,
+                second.alpha,
+                Fresnel::Schlick { f0: second.f0 },
+            )
+        })
+    }
+
+    /// ρ from each lobe's D·G/(4 cos θ_l cos θ_v) (`dg` and `dg_second`, as
+    /// [`Microfacet::eval_unit_fresnel`] gives them; the second is ignored without a second
+    /// lobe) and the half-difference cosine. [`Brdf::eval`] is this, so the fit can reuse one
+    /// `dg` across every parameter but a lobe's shape and still step on `eval`'s bits.
     #[inline]
-    fn eval_from_lobe(&self, visible: bool, dg: f64, cos_d: f64) -> [f64; 3] {
+    fn eval_from_lobes(&self, visible: bool, dg: f64, dg_second: f64, cos_d: f64) -> [f64; 3] {
         if !visible {
             return [0.0; 3];
         }
@@ -77,7 +101,13 @@ impl LambertMicrofacet {
             } else {
                 self.specular * schlick(self.f0[c], cos_d) * dg
             };
-            self.albedo[c] * FRAC_1_PI + specular
+            let mut rho = self.albedo[c] * FRAC_1_PI + specular;
+            if let Some(second) = self.coat
+                && dg_second != 0.0
+            {
+                rho += schlick(second.f0[c], cos_d) * dg_second;
+            }
+            rho
         })
     }
 }
@@ -85,9 +115,13 @@ impl LambertMicrofacet {
 impl Brdf for LambertMicrofacet {
     fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
         let lobe = self.parts().1;
-        self.eval_from_lobe(
+        let dg_second = self
+            .coat_part()
+            .map_or(0.0, |second| second.eval_unit_fresnel(l, v));
+        self.eval_from_lobes(
             above(l, v),
             lobe.eval_unit_fresnel(l, v),
+            dg_second,
             cos_half_difference(l, v),
         )
     }
@@ -99,9 +133,31 @@ impl Brdf for LambertMicrofacet {
 /// Roughness bounds: below 0.01 a lobe is narrower than the 2° bins can show.
 const ALPHA_MIN: f64 = 0.01;
 const ALPHA_MAX: f64 = 1.5;
-/// Parameters: three albedo logits, three F0 logits, two log-roughness logits, rotation,
-/// the specular weight's logit.
-const P: usize = 10;
+/// Parameters of one lobe: three albedo logits, three F0 logits, two log-roughness logits,
+/// rotation, the specular weight's logit.
+const P_ONE: usize = 10;
+/// With a second lobe: the logit of its grey F0 within the dielectric range and its
+/// log-roughness logit after those.
+const P: usize = 12;
+/// The parameters D·G of the first lobe depends on (its roughnesses and turn), and that of
+/// the second (its roughness).
+const SHAPE: [usize; 3] = [6, 7, 8];
+const COAT_SHAPE: usize = 11;
+/// The second lobe's F0 is a dielectric coat's, grey: indices of refraction 1.33 to 1.8.
+/// Why not free: with one light every painted bin has the same θ_d, so a free F0 trades the
+/// lobe's height for its Fresnel rise at will; a coat's F0 ties the lobe's height to its width,
+/// and a free second lobe fitted the shape of single-lobe materials (Ward, Blinn–Phong) by two
+/// GGX lobes that extrapolated worse (measured in `PriorMean::Fitted`'s notes).
+const COAT_F0_MIN: f64 = 0.02;
+const COAT_F0_MAX: f64 = 0.08;
+
+/// A parameter vector; only the first [`param_count`] entries are used.
+type Params = [f64; P];
+
+/// How many parameters a model with or without a second lobe has.
+fn param_count(two_lobes: bool) -> usize {
+    if two_lobes { P } else { P_ONE }
+}
 
 fn logistic(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
@@ -123,7 +179,7 @@ fn alpha_param(alpha: f64) -> f64 {
     logit((alpha.ln() - ALPHA_MIN.ln()) / (ALPHA_MAX / ALPHA_MIN).ln())
 }
 
-fn model_of(theta: &[f64; P], distribution: Distribution) -> LambertMicrofacet {
+fn model_of(theta: &Params, distribution: Distribution, two_lobes: bool) -> LambertMicrofacet {
     LambertMicrofacet {
         albedo: [0, 1, 2].map(|c| logistic(theta[c])),
         f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
@@ -133,10 +189,14 @@ fn model_of(theta: &[f64; P], distribution: Distribution) -> LambertMicrofacet {
         // A lobe turned by π is the same lobe: the reported angle stays in [0, π).
         rotation: theta[8].rem_euclid(std::f64::consts::PI),
         specular: logistic(theta[9]),
+        coat: two_lobes.then(|| Coat {
+            f0: [COAT_F0_MIN + (COAT_F0_MAX - COAT_F0_MIN) * logistic(theta[P_ONE]); 3],
+            alpha: alpha_of(theta[COAT_SHAPE]),
+        }),
     }
 }
 
-fn params_of(model: &LambertMicrofacet) -> [f64; P] {
+fn params_of(model: &LambertMicrofacet) -> Params {
     let mut theta = [0.0; P];
     for c in 0..3 {
         theta[c] = logit(model.albedo[c]);
@@ -146,6 +206,11 @@ fn params_of(model: &LambertMicrofacet) -> [f64; P] {
     theta[7] = alpha_param(model.alpha_y);
     theta[8] = model.rotation;
     theta[9] = logit(model.specular);
+    if let Some(second) = model.coat {
+        let grey = (second.f0[0] + second.f0[1] + second.f0[2]) / 3.0;
+        theta[P_ONE] = logit((grey - COAT_F0_MIN) / (COAT_F0_MAX - COAT_F0_MIN));
+        theta[COAT_SHAPE] = alpha_param(second.alpha);
+    }
     theta
 }
 
@@ -174,6 +239,11 @@ pub struct FitOptions {
     /// brightness-weighted one are both below GGX's divided by this factor (1: whichever fits
     /// better on both); `None`: GGX only.
     pub beckmann_margin: Option<f64>,
+    /// Also fit a clear coat (a second, isotropic lobe with a dielectric's grey F0) over the
+    /// chosen lobe, and keep it when its RMS log
+    /// residual and its brightness-weighted one are both below one lobe's divided by this
+    /// factor (two lobes always fit at least as well, so it is above 1); `None`: one lobe.
+    pub coat_margin: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -184,6 +254,7 @@ impl Default for FitOptions {
             finalists: 2,
             max_iterations: 80,
             beckmann_margin: None,
+            coat_margin: None,
         }
     }
 }
@@ -237,7 +308,7 @@ pub fn fit_lambert_microfacet_bounded(
     let starts = starting_points(bins);
     if observations.is_empty() {
         return FitResult {
-            model: model_of(&starts[0], Distribution::Ggx),
+            model: model_of(&starts[0], Distribution::Ggx, false),
             rms_log_residual: 0.0,
             starts: 0,
             iterations: 0,
@@ -245,30 +316,66 @@ pub fn fit_lambert_microfacet_bounded(
     }
     let residuals = 3.0 * observations.len() as f64;
     let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
-    let mut best = fit_shape(&observations, &starts, Distribution::Ggx, options);
+    let weighted = |fit: &ShapeFit| brightness_weighted_rms(&observations, &fit.model());
+    let mut best = fit_shape(&observations, &starts, Distribution::Ggx, false, options);
     let mut iterations = best.iterations;
-    let mut shapes = 1;
+    let mut tried = starts.len();
     if let Some(margin) = options.beckmann_margin {
-        let beckmann = fit_shape(&observations, &starts, Distribution::Beckmann, options);
+        let beckmann = fit_shape(
+            &observations,
+            &starts,
+            Distribution::Beckmann,
+            false,
+            options,
+        );
         iterations += beckmann.iterations;
-        shapes += 1;
+        tried += starts.len();
         // Beckmann must follow both the bulk of the bins (the fit's own log residual) and
         // the bright ones (weighted as the ridge weighs them). A sharp lobe over a haze (two
         // lobes) is fitted better in the log domain by a Beckmann lobe on the haze, which
         // misses the peak, and a second view would only pull it further onto the haze.
-        let weighted = |fit: &ShapeFit| brightness_weighted_rms(&observations, &fit.model());
         if rms(beckmann.cost) * margin < rms(best.cost)
             && weighted(&beckmann) * margin < weighted(&best)
         {
             best = beckmann;
         }
     }
+    if let Some(margin) = options.coat_margin {
+        // One lobe fitted to a clear coat over a rougher lobe settles between them, and the
+        // log domain favours the broad one: each view added then trades more of the coat's
+        // peak for the tails. A coat can hold the peak, but two lobes always fit at least as
+        // well, so it must earn its place by the margin.
+        let starts = coat_starts(&best.theta);
+        let two = fit_shape(&observations, &starts, best.distribution, true, options);
+        iterations += two.iterations;
+        tried += starts.len();
+        if rms(two.cost) * margin < rms(best.cost) && weighted(&two) * margin < weighted(&best) {
+            best = two;
+        }
+    }
     FitResult {
         model: best.model(),
         rms_log_residual: rms(best.cost),
-        starts: starts.len() * shapes,
+        starts: tried,
         iterations,
     }
+}
+
+/// Starts for a coat beside a fitted first lobe (`theta`): sharper and broader than it, at
+/// the low and high end of a dielectric's F0.
+fn coat_starts(theta: &Params) -> Vec<Params> {
+    let first = model_of(theta, Distribution::Ggx, false);
+    let alpha = (first.alpha_x * first.alpha_y).sqrt();
+    let mut starts = Vec::new();
+    for second_alpha in [alpha / 4.0, alpha * 4.0] {
+        for f0 in [0.03, 0.06] {
+            let mut start = *theta;
+            start[P_ONE] = logit((f0 - COAT_F0_MIN) / (COAT_F0_MAX - COAT_F0_MIN));
+            start[COAT_SHAPE] = alpha_param(second_alpha.clamp(ALPHA_MIN, ALPHA_MAX));
+            starts.push(start);
+        }
+    }
+    starts
 }
 
 /// RMS of the log residuals weighted by each bin's brightness L (luminance × cos θ_l cos θ_v)
@@ -296,17 +403,18 @@ fn brightness_weighted_rms(observations: &[Observation], model: &LambertMicrofac
 
 /// The best fit of one lobe shape.
 struct ShapeFit {
-    theta: [f64; P],
+    theta: Params,
     /// ½‖r‖² at `theta`.
     cost: f64,
     /// LM iterations run over every start.
     iterations: usize,
     distribution: Distribution,
+    two_lobes: bool,
 }
 
 impl ShapeFit {
     fn model(&self) -> LambertMicrofacet {
-        model_of(&self.theta, self.distribution)
+        model_of(&self.theta, self.distribution, self.two_lobes)
     }
 }
 
@@ -314,16 +422,22 @@ impl ShapeFit {
 /// iterations, the best finalists run to convergence.
 fn fit_shape(
     observations: &[Observation],
-    starts: &[[f64; P]],
+    starts: &[Params],
     distribution: Distribution,
+    two_lobes: bool,
     options: &FitOptions,
 ) -> ShapeFit {
     let mut iterations = 0;
-    let mut scouted: Vec<([f64; P], f64)> = starts
+    let mut scouted: Vec<(Params, f64)> = starts
         .iter()
         .map(|start| {
-            let (theta, cost, it) =
-                levenberg_marquardt(observations, *start, distribution, options.scout_iterations);
+            let (theta, cost, it) = levenberg_marquardt(
+                observations,
+                *start,
+                distribution,
+                two_lobes,
+                options.scout_iterations,
+            );
             iterations += it;
             (theta, cost)
         })
@@ -331,8 +445,13 @@ fn fit_shape(
     scouted.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (mut best, mut best_cost) = (scouted[0].0, scouted[0].1);
     for &(theta, _) in scouted.iter().take(options.finalists.max(1)) {
-        let (theta, cost, it) =
-            levenberg_marquardt(observations, theta, distribution, options.max_iterations);
+        let (theta, cost, it) = levenberg_marquardt(
+            observations,
+            theta,
+            distribution,
+            two_lobes,
+            options.max_iterations,
+        );
         iterations += it;
         if cost < best_cost {
             (best, best_cost) = (theta, cost);
@@ -343,12 +462,13 @@ fn fit_shape(
         cost: best_cost,
         iterations,
         distribution,
+        two_lobes,
     }
 }
 
 /// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,
 /// four isotropic roughnesses and anisotropic ones at four orientations.
-fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
+fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
     let albedo: [f64; 3] = std::array::from_fn(|c| {
         let mut v: Vec<f64> = bins
             .iter()
@@ -377,6 +497,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
                 alpha_y: alpha,
                 rotation: 0.0,
                 specular: 0.9,
+                coat: None,
             }));
         }
     }
@@ -390,6 +511,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
             alpha_y: alpha,
             rotation: 0.0,
             specular: 0.01,
+            coat: None,
         }));
     }
     for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
@@ -401,6 +523,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<[f64; P]> {
             alpha_y: 0.3,
             rotation,
             specular: 0.9,
+            coat: None,
         }));
     }
     starts
@@ -431,8 +554,13 @@ fn residuals_of(rho: [f64; 3], o: &Observation) -> [f64; 3] {
 }
 
 /// ½‖r‖² at `theta`.
-fn cost(observations: &[Observation], theta: &[f64; P], distribution: Distribution) -> f64 {
-    let model = model_of(theta, distribution);
+fn cost(
+    observations: &[Observation],
+    theta: &Params,
+    distribution: Distribution,
+    two_lobes: bool,
+) -> f64 {
+    let model = model_of(theta, distribution, two_lobes);
     let partials: Vec<f64> = observations
         .par_chunks(CHUNK)
         .map(|chunk| {
@@ -445,31 +573,45 @@ fn cost(observations: &[Observation], theta: &[f64; P], distribution: Distributi
     0.5 * partials.iter().sum::<f64>()
 }
 
+/// One parameter stepped for the forward-difference Jacobian: the stepped model, the stepped
+/// lobe when the step changes a lobe's D·G (first, second), and the step taken.
+struct Stepped {
+    model: LambertMicrofacet,
+    lobe: Option<Microfacet>,
+    second: Option<Microfacet>,
+    h: f64,
+}
+
 /// JᵀJ, Jᵀr and ½‖r‖² at `theta`, with a forward-difference Jacobian, summed in chunk order.
-/// Only the lobe's shape (the two roughnesses and the turn) changes D·G, so a bin evaluates it
-/// four times (at `theta` and those three steps) rather than once per parameter; every
-/// stepped ρ is still the bits [`Brdf::eval`] would give.
+/// Only a lobe's shape (the first's two roughnesses and turn, the second's roughness) changes
+/// its D·G, so a bin evaluates each lobe once at `theta` and once per shape step rather than
+/// once per parameter; every stepped ρ is still the bits [`Brdf::eval`] would give.
 fn normal_equations(
     observations: &[Observation],
-    theta: &[f64; P],
+    theta: &Params,
     distribution: Distribution,
-) -> ([f64; P * P], [f64; P], f64) {
+    two_lobes: bool,
+) -> ([f64; P * P], Params, f64) {
     const STEP: f64 = 1e-6;
-    /// The parameters D·G depends on.
-    const SHAPE: [usize; 3] = [6, 7, 8];
-    let base = model_of(theta, distribution);
+    let n = param_count(two_lobes);
+    let base = model_of(theta, distribution, two_lobes);
     let lobe = base.parts().1;
-    let perturbed: Vec<(LambertMicrofacet, Option<Microfacet>, f64)> = (0..P)
+    let second = base.coat_part();
+    let stepped: Vec<Stepped> = (0..n)
         .map(|j| {
             let mut t = *theta;
             let h = STEP * theta[j].abs().max(1.0);
             t[j] += h;
-            let model = model_of(&t, distribution);
-            let lobe = SHAPE.contains(&j).then(|| model.parts().1);
-            (model, lobe, t[j] - theta[j])
+            let model = model_of(&t, distribution, two_lobes);
+            Stepped {
+                lobe: SHAPE.contains(&j).then(|| model.parts().1),
+                second: (j == COAT_SHAPE).then(|| model.coat_part()).flatten(),
+                model,
+                h: t[j] - theta[j],
+            }
         })
         .collect();
-    let partials: Vec<([f64; P * P], [f64; P], f64)> = observations
+    let partials: Vec<([f64; P * P], Params, f64)> = observations
         .par_chunks(CHUNK)
         .map(|chunk| {
             let mut jtj = [0.0; P * P];
@@ -479,22 +621,31 @@ fn normal_equations(
                 let visible = above(o.l, o.v);
                 let cos_d = cos_half_difference(o.l, o.v);
                 let dg = lobe.eval_unit_fresnel(o.l, o.v);
-                let r = residuals_of(base.eval_from_lobe(visible, dg, cos_d), o);
+                let dg_second = second
+                    .as_ref()
+                    .map_or(0.0, |s| s.eval_unit_fresnel(o.l, o.v));
+                let r = residuals_of(base.eval_from_lobes(visible, dg, dg_second, cos_d), o);
                 let mut jac = [[0.0; P]; 3];
-                for (j, (model, moved_lobe, h)) in perturbed.iter().enumerate() {
-                    let dg = moved_lobe
+                for (j, step) in stepped.iter().enumerate() {
+                    let dg = step
+                        .lobe
                         .as_ref()
                         .map_or(dg, |moved| moved.eval_unit_fresnel(o.l, o.v));
-                    let rp = residuals_of(model.eval_from_lobe(visible, dg, cos_d), o);
+                    let dg_second = step
+                        .second
+                        .as_ref()
+                        .map_or(dg_second, |moved| moved.eval_unit_fresnel(o.l, o.v));
+                    let rp =
+                        residuals_of(step.model.eval_from_lobes(visible, dg, dg_second, cos_d), o);
                     for ch in 0..3 {
-                        jac[ch][j] = (rp[ch] - r[ch]) / h;
+                        jac[ch][j] = (rp[ch] - r[ch]) / step.h;
                     }
                 }
                 for ch in 0..3 {
                     sum += r[ch] * r[ch];
-                    for a in 0..P {
+                    for a in 0..n {
                         jtr[a] += jac[ch][a] * r[ch];
-                        for b in a..P {
+                        for b in a..n {
                             jtj[a * P + b] += jac[ch][a] * jac[ch][b];
                         }
                     }
@@ -515,7 +666,7 @@ fn normal_equations(
         }
         sum += s;
     }
-    for a in 0..P {
+    for a in 0..n {
         for b in 0..a {
             jtj[a * P + b] = jtj[b * P + a];
         }
@@ -523,15 +674,16 @@ fn normal_equations(
     (jtj, jtr, 0.5 * sum)
 }
 
-/// Solves (JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr; `None` when the damped matrix is not positive definite.
-fn damped_step(jtj: &[f64; P * P], jtr: &[f64; P], lambda: f64) -> Option<[f64; P]> {
-    let mut m = Mat::<f64>::from_fn(P, P, |i, j| jtj[i * P + j]);
-    for i in 0..P {
+/// Solves (JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr over the first `n` parameters; `None` when the damped
+/// matrix is not positive definite.
+fn damped_step(jtj: &[f64; P * P], jtr: &Params, lambda: f64, n: usize) -> Option<Params> {
+    let mut m = Mat::<f64>::from_fn(n, n, |i, j| jtj[i * P + j]);
+    for i in 0..n {
         m[(i, i)] += lambda * jtj[i * P + i].max(1e-12);
     }
-    let mut x = Mat::<f64>::from_fn(P, 1, |i, _| -jtr[i]);
+    let mut x = Mat::<f64>::from_fn(n, 1, |i, _| -jtr[i]);
     m.llt(Side::Lower).ok()?.solve_in_place(x.as_mut());
-    let step: [f64; P] = std::array::from_fn(|i| x[(i, 0)]);
+    let step: Params = std::array::from_fn(|i| if i < n { x[(i, 0)] } else { 0.0 });
     step.iter().all(|v| v.is_finite()).then_some(step)
 }
 
@@ -539,21 +691,24 @@ fn damped_step(jtj: &[f64; P * P], jtr: &[f64; P], lambda: f64) -> Option<[f64; 
 /// cost and the iterations run.
 fn levenberg_marquardt(
     observations: &[Observation],
-    mut theta: [f64; P],
+    mut theta: Params,
     distribution: Distribution,
+    two_lobes: bool,
     max_iterations: usize,
-) -> ([f64; P], f64, usize) {
+) -> (Params, f64, usize) {
+    let n = param_count(two_lobes);
     let mut lambda = 1e-3;
-    let (mut jtj, mut jtr, mut current) = normal_equations(observations, &theta, distribution);
+    let (mut jtj, mut jtr, mut current) =
+        normal_equations(observations, &theta, distribution, two_lobes);
     let mut iterations = 0;
     while iterations < max_iterations {
         iterations += 1;
         let mut accepted = false;
         // Raise the damping until a step lowers the cost (or the damping is hopeless).
         while lambda < 1e10 {
-            if let Some(step) = damped_step(&jtj, &jtr, lambda) {
-                let trial: [f64; P] = std::array::from_fn(|i| theta[i] + step[i]);
-                let trial_cost = cost(observations, &trial, distribution);
+            if let Some(step) = damped_step(&jtj, &jtr, lambda, n) {
+                let trial: Params = std::array::from_fn(|i| theta[i] + step[i]);
+                let trial_cost = cost(observations, &trial, distribution, two_lobes);
                 if trial_cost.is_finite() && trial_cost < current {
                     let gain = (current - trial_cost) / current.max(f64::MIN_POSITIVE);
                     theta = trial;
@@ -570,7 +725,7 @@ fn levenberg_marquardt(
         if !accepted {
             break;
         }
-        (jtj, jtr, current) = normal_equations(observations, &theta, distribution);
+        (jtj, jtr, current) = normal_equations(observations, &theta, distribution, two_lobes);
     }
     (theta, current, iterations)
 }
@@ -588,9 +743,10 @@ mod tests {
         alpha_y: 1.2,
         rotation: 0.7,
         specular: 0.3,
+        coat: None,
     };
 
-    /// `eval` (through `eval_from_lobe`, which the fit's Jacobian reuses) is the library's
+    /// `eval` (through `eval_from_lobes`, which the fit's Jacobian reuses) is the library's
     /// Lambert plus microfacet lobe to the bit, above and below the horizon.
     #[test]
     fn evaluation_is_lambert_plus_the_library_lobe_to_the_bit() {
@@ -605,6 +761,7 @@ mod tests {
                 alpha_y: 0.01,
                 rotation: 0.0,
                 specular: 1.0,
+                coat: None,
             },
         ];
         for model in models {
@@ -630,7 +787,7 @@ mod tests {
     #[test]
     fn parametrisation_round_trips_within_bounds() {
         let model = MIXED;
-        let back = model_of(&params_of(&model), model.distribution);
+        let back = model_of(&params_of(&model), model.distribution, false);
         for c in 0..3 {
             assert!((back.albedo[c] - model.albedo[c]).abs() < 1e-9);
             assert!((back.f0[c] - model.f0[c]).abs() < 1e-9);
@@ -638,8 +795,11 @@ mod tests {
         assert!((back.alpha_x - 0.02).abs() < 1e-9 && (back.alpha_y - 1.2).abs() < 1e-9);
         assert!((back.specular - 0.3).abs() < 1e-9);
         let extreme = model_of(
-            &[1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3],
+            &[
+                1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3, 0.0, 0.0,
+            ],
             Distribution::Ggx,
+            false,
         );
         assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
         assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));

@@ -152,13 +152,16 @@ impl MeanFitRequest {
 
 /// The fit's options for the prior's mean `mean`: which lobe shapes it tries.
 pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
-    FitOptions {
-        beckmann_margin: match mean {
-            PriorMean::Fitted {
-                beckmann_margin, ..
-            } => beckmann_margin,
-            PriorMean::Database => None,
+    match mean {
+        PriorMean::Fitted {
+            beckmann_margin,
+            coat_margin,
+            ..
+        } => FitOptions {
+            beckmann_margin,
+            coat_margin,
+            ..Default::default()
         },
-        ..Default::default()
+        PriorMean::Database => FitOptions::default(),
     }
 }

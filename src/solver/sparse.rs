@@ -478,6 +478,35 @@ mod tests {
         assert_eq!((last.before, last.after), (Some([1.0; 3]), None));
     }
 
+    /// Min and Max keep a whole sample's colour; between samples of equal luminance the
+    /// smallest key wins, whatever order they were painted in.
+    #[test]
+    fn min_and_max_break_ties_by_the_smallest_key() {
+        // 0.2126 · 0.7152 either way round: the same luminance to the bit.
+        let red = [0.7152, 0.0, 0.0];
+        let green = [0.0, 0.2126, 0.0];
+        for policy in [Policy::Min, Policy::Max] {
+            let mut t = SparseTable::new(policy);
+            let mut ch = Vec::new();
+            t.set_sample(key(2), 4, 7, red, &mut ch).unwrap();
+            t.set_sample(key(1), 4, 7, green, &mut ch).unwrap();
+            assert_eq!(t.bin_value(pair_index(4, 7)), Some(green), "{policy:?}");
+        }
+    }
+
+    #[test]
+    fn policies_parse_by_name() {
+        for (name, policy) in [
+            ("mean", Policy::Mean),
+            ("min", Policy::Min),
+            ("max", Policy::Max),
+        ] {
+            assert_eq!(name.parse::<Policy>(), Ok(policy));
+        }
+        let error = "median".parse::<Policy>().unwrap_err();
+        assert!(error.contains("median"), "{error}");
+    }
+
     #[test]
     fn bad_values_are_rejected_and_change_nothing() {
         let mut t = SparseTable::default();

@@ -487,11 +487,28 @@ mod tests {
         let green = [0.0, 0.2126, 0.0];
         for policy in [Policy::Min, Policy::Max] {
             let mut t = SparseTable::new(policy);
+            assert_eq!(t.policy(), policy);
             let mut ch = Vec::new();
             t.set_sample(key(2), 4, 7, red, &mut ch).unwrap();
             t.set_sample(key(1), 4, 7, green, &mut ch).unwrap();
             assert_eq!(t.bin_value(pair_index(4, 7)), Some(green), "{policy:?}");
         }
+    }
+
+    /// A pixel repainted within its bin is one change from the old value to the new, never a
+    /// removal and a re-insertion (the worker would see the bin vanish in between).
+    #[test]
+    fn repainting_within_a_bin_is_one_change() {
+        let mut t = SparseTable::default();
+        let mut ch = Vec::new();
+        t.set_sample(key(5), 2, 6, [1.0; 3], &mut ch).unwrap();
+        ch.clear();
+        t.set_sample(key(5), 2, 6, [3.0; 3], &mut ch).unwrap();
+        assert_eq!(ch.len(), 1, "{ch:?}");
+        assert_eq!(
+            (ch[0].pair, ch[0].before, ch[0].after),
+            (pair_index(2, 6), Some([1.0; 3]), Some([3.0; 3]))
+        );
     }
 
     #[test]

@@ -17,25 +17,17 @@ pub const PAIRS: usize = DIRECTIONS * (DIRECTIONS + 1) / 2;
 /// A direction bin index in `[0, DIRECTIONS)`.
 pub type DirIndex = u16;
 
-/// Polar index of an angle θ (radians), clamped to the last bin at π/2.
+/// Polar index of an angle θ (radians), clamped to the last bin at π/2. A negative or NaN
+/// angle is bin 0: a float-to-int `as` saturates, and takes NaN to 0.
 pub fn theta_index(theta: f64) -> usize {
-    let t = (theta / FRAC_PI_2 * THETA_BINS as f64).floor();
-    if t.is_nan() || t < 0.0 {
-        0
-    } else {
-        (t as usize).min(THETA_BINS - 1)
-    }
+    ((theta / FRAC_PI_2 * THETA_BINS as f64).floor() as usize).min(THETA_BINS - 1)
 }
 
-/// Azimuth index of an angle φ (radians, any range).
+/// Azimuth index of an angle φ (radians, any range); NaN is bin 0, as `as` takes it to 0.
 pub fn phi_index(phi: f64) -> usize {
     let wrapped = phi.rem_euclid(TAU);
-    let p = (wrapped / TAU * PHI_BINS as f64).floor();
-    if p.is_nan() {
-        0
-    } else {
-        (p as usize) % PHI_BINS
-    }
+    // Rounding can land a hair below 2π on PHI_BINS itself: that is bin 0.
+    ((wrapped / TAU * PHI_BINS as f64).floor() as usize) % PHI_BINS
 }
 
 /// The bin of a unit direction in the local shading frame, or `None` below the horizon.
@@ -301,11 +293,14 @@ mod tests {
         assert_eq!(theta_index(-0.1), 0);
         assert_eq!(theta_index(f64::NAN), 0);
         assert_eq!(theta_index(2.0), THETA_BINS - 1);
+        assert_eq!(theta_index(f64::INFINITY), THETA_BINS - 1);
+        assert_eq!(theta_index(f64::NEG_INFINITY), 0);
         // Azimuths wrap: 10° wide bins over any multiple of 2π; NaN in the first.
         assert_eq!(phi_index(15f64.to_radians()), 1);
         assert_eq!(phi_index(15f64.to_radians() - 2.0 * TAU), 1);
         assert_eq!(phi_index(-15f64.to_radians()), PHI_BINS - 2);
         assert_eq!(phi_index(f64::NAN), 0);
+        assert_eq!(phi_index(f64::INFINITY), 0);
         // A direction need not be unit length, and rounding past z = 1 is still the normal.
         let w = bin_centre(36 * 30 + 7);
         assert_eq!(direction_index(w * 3.5), Some(36 * 30 + 7));

@@ -26,7 +26,7 @@ pub fn theta_index(theta: f64) -> usize {
 /// Azimuth index of an angle φ (radians, any range); NaN is bin 0, as `as` takes it to 0.
 pub fn phi_index(phi: f64) -> usize {
     let wrapped = phi.rem_euclid(TAU);
-    // Rounding can land a hair below 2π on PHI_BINS itself: that is bin 0.
+    // A φ a hair below 0 wraps to 2π itself after rounding; its bin, PHI_BINS, is bin 0.
     ((wrapped / TAU * PHI_BINS as f64).floor() as usize) % PHI_BINS
 }
 

@@ -65,8 +65,9 @@ impl Solver {
         let c = crate::basis::cos_weight(pair);
         let (mut rho, mut bounds) = (rho, bounds);
         for ch in 0..3 {
-            // The mapped length of [0, b]; the map's reference cancels out.
-            let width = map_value(rho[ch], c, 0.0) - map_value(0.0, c, 0.0);
+            // The mapped length of [0, b]: with reference 0, 0 maps to ln 1 = 0 exactly, so
+            // b's mapped value, ln(1 + bc/ε), is that length.
+            let width = map_value(rho[ch], c, 0.0);
             if bounds[ch] == Bound::AtMost && width <= NARROW_BOUND_WIDTH {
                 rho[ch] *= 0.5;
                 bounds[ch] = Bound::Exact;
@@ -228,9 +229,8 @@ mod tests {
         let solver = solver(Censoring::Bounds { steps: 200 });
         let pair = PairIndex::from_index(777_777);
         let black = 1e-6;
-        let width = |rho: f64| {
-            map_value(rho, cos_weight(pair), 0.0) - map_value(0.0, cos_weight(pair), 0.0)
-        };
+        // ln(1 + ρc/ε), written out apart from the code's map_value.
+        let width = |rho: f64| (1.0 + rho * cos_weight(pair) / crate::basis::MAP_EPSILON).ln();
         assert!(width(black) < 0.01 * NARROW_BOUND_WIDTH && width(0.5) > NARROW_BOUND_WIDTH);
 
         let (rho, bounds) = solver.pin_narrow_bounds(pair, [black; 3], [AtMost; 3]);

@@ -165,3 +165,143 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
         PriorMean::Database => FitOptions::default(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::build::{SMALL_TEST_SPEC, build_basis};
+    use crate::materials::models::Distribution;
+    use crate::solver::{BinChange, EXACT, PriorModel, Reconstruction, Regularization, Solver};
+    use std::sync::OnceLock;
+
+    fn basis() -> Arc<Basis> {
+        static BASIS: OnceLock<Arc<Basis>> = OnceLock::new();
+        BASIS
+            .get_or_init(|| Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {})))
+            .clone()
+    }
+
+    /// An orange plastic: inside the fit's own family, so a fit can recover it.
+    fn plastic() -> LambertMicrofacet {
+        LambertMicrofacet {
+            albedo: [0.6, 0.3, 0.1],
+            f0: [0.04; 3],
+            specular: 1.0,
+            distribution: Distribution::Ggx,
+            alpha_x: 0.2,
+            alpha_y: 0.2,
+            rotation: 0.0,
+            coat: None,
+        }
+    }
+
+    /// Every 211th pair of the table, painted exactly from `model`.
+    fn painted(model: &LambertMicrofacet) -> Vec<BinChange> {
+        let table = tabulate(model);
+        (0..PAIRS)
+            .step_by(211)
+            .map(|p| {
+                let pair = PairIndex::from_index(p);
+                BinChange::observed(pair, table.pairs()[p].map(f64::from), EXACT)
+            })
+            .collect()
+    }
+
+    /// The offsets are the model's table in the basis's mapped domain: with no correction on
+    /// top, the reconstruction measured from the reference is the model's own table.
+    #[test]
+    fn a_reference_with_no_correction_is_its_models_table() {
+        let model = plastic();
+        let reference = Arc::new(FittedReference::new(basis(), model));
+        assert_eq!(reference.offsets().len(), PAIRS);
+        let truth = tabulate(&model);
+        let k = basis().components();
+        let rebuilt = Reconstruction::new(basis(), &vec![[0.0; 3]; k])
+            .with_reference(Some(reference.clone()))
+            .materialize();
+        for p in (0..PAIRS).step_by(97) {
+            let pair = PairIndex::from_index(p);
+            assert_eq!(reference.offset(pair), reference.offsets()[p]);
+            for c in 0..3 {
+                let (want, got) = (truth.pairs()[p][c], rebuilt.pairs()[p][c]);
+                assert!(
+                    (got - want).abs() <= 1e-4 * want.abs() + 1e-7,
+                    "pair {p} channel {c}: {got} against the model's {want}"
+                );
+            }
+        }
+    }
+
+    /// Two references are equal only for the same model on the same basis (the same `Arc`:
+    /// the offsets are measured from that basis's mean).
+    #[test]
+    fn references_are_equal_for_one_model_on_one_basis() {
+        let same = FittedReference::new(basis(), plastic());
+        assert_eq!(same, FittedReference::new(basis(), plastic()));
+        let rougher = LambertMicrofacet {
+            alpha_x: 0.3,
+            ..plastic()
+        };
+        assert_ne!(same, FittedReference::new(basis(), rougher));
+        let other_basis = Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {}));
+        assert_ne!(same, FittedReference::new(other_basis, plastic()));
+    }
+
+    /// The debug text names the model, and not the million offsets.
+    #[test]
+    fn a_reference_debugs_as_its_model() {
+        let text = format!("{:?}", FittedReference::new(basis(), plastic()));
+        assert!(text.starts_with("FittedReference"), "{text}");
+        assert!(text.contains("alpha_x: 0.2"), "{text}");
+        assert!(!text.contains("offsets"), "{text}");
+    }
+
+    /// A request carries every painted bin and the solver's generation, and its fit recovers
+    /// a model of its own family.
+    #[test]
+    fn a_request_fits_the_painted_bins_it_copied() {
+        let mut solver = Solver::with_model(basis(), Regularization::Auto, PriorModel::CALIBRATED);
+        let changes = painted(&plastic());
+        solver.apply_all(&changes);
+        let request = solver.mean_fit_request().expect("a fit is due");
+        assert_eq!(request.bins(), changes.len());
+        let generation = request.generation;
+        let fitted = request.run();
+        assert_eq!(fitted.generation, generation);
+        let model = *fitted.reference.model();
+        let truth = plastic();
+        assert!(
+            (model.alpha_x - truth.alpha_x).abs() < 0.01
+                && (model.alpha_y - truth.alpha_y).abs() < 0.01,
+            "{model:?}"
+        );
+        for c in 0..3 {
+            assert!(
+                (model.albedo[c] - truth.albedo[c]).abs() < 0.01,
+                "{model:?}"
+            );
+            assert!(
+                (model.specular * model.f0[c] - truth.f0[c]).abs() < 0.004,
+                "{model:?}"
+            );
+        }
+        assert!(Arc::ptr_eq(fitted.reference.basis(), &basis()));
+    }
+
+    /// The fit tries the lobe shapes the prior's mean names, and GGX alone for the database's
+    /// mean (which fits nothing but the analytic baseline).
+    #[test]
+    fn the_fit_tries_the_shapes_the_prior_mean_names() {
+        let mean = PriorMean::Fitted {
+            margin_nats: 3.0,
+            beckmann_margin: Some(1.5),
+            coat_margin: Some(2.0),
+        };
+        let options = fit_options(mean);
+        assert_eq!(options.beckmann_margin, Some(1.5));
+        assert_eq!(options.coat_margin, Some(2.0));
+        assert_eq!(options.finalists, FitOptions::default().finalists);
+        assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
+        assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));
+    }
+}

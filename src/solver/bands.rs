@@ -193,6 +193,46 @@ mod tests {
         assert!((at(45.0, KnotSpacing::SineSquared) - 2.0).abs() < 1e-5);
     }
 
+    /// A half angle blends two neighbouring knots with weights in [0, 1]: at 90° all the
+    /// weight is on the last knot, paired with the one before it, and a uniform knot's half
+    /// angle past 90° (which no pair has) is held there.
+    #[test]
+    fn grazing_half_angles_weigh_the_last_knot_whole() {
+        for spacing in KnotSpacing::ALL {
+            for deg in 0..=90 {
+                let w = BandWeights::of_theta_d_spaced(f64::from(deg).to_radians(), 5, spacing);
+                assert!(
+                    w.lower <= 3 && (0.0..=1.0).contains(&w.frac),
+                    "{spacing:?} {deg}°: {w:?}"
+                );
+            }
+            let w = BandWeights::of_theta_d_spaced(std::f64::consts::FRAC_PI_2, 5, spacing);
+            assert!(
+                w.lower == 3 && (w.frac - 1.0).abs() < 1e-5,
+                "{spacing:?}: {w:?}"
+            );
+        }
+        for angle in [2.0, 10.0] {
+            let w = BandWeights::of_theta_d(angle, 5);
+            assert_eq!((w.lower, w.frac), (3, 1.0), "{angle}");
+        }
+    }
+
+    /// Every spacing has its own table of pair weights, whichever is asked for first.
+    #[test]
+    fn each_spacing_keeps_its_own_table() {
+        use crate::table::{PairIndex, pair_directions};
+        for spacing in KnotSpacing::ALL {
+            let table = pair_bands_spaced(spacing);
+            for p in (0..PAIRS).step_by(9973) {
+                let (lo, hi) = pair_directions(PairIndex::from_index(p));
+                let d = bin_centre(lo).dot(bin_centre(hi));
+                let expected = BandWeights::of_theta_d_spaced(theta_d(d), BANDS, spacing);
+                assert_eq!(table[p], expected, "{spacing:?}, pair {p}");
+            }
+        }
+    }
+
     #[test]
     fn theta_d_is_half_the_angle_between() {
         assert!(theta_d(1.0).abs() < 1e-12);

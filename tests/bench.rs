@@ -57,6 +57,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
         rotation: 0.4,
         specular: 0.8,
         coat: None,
+        edge: None,
     };
     let truth = tabulate(&truth_model);
     // Rendered from the table, each sample is exactly the bin-centre value: noise-free.
@@ -110,6 +111,7 @@ fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
             rotation: 0.0,
             specular: 1.0,
             coat: None,
+            edge: None,
         };
         let truth = tabulate(&truth_model);
         let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
@@ -133,6 +135,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
     let options = FitOptions {
         beckmann_margin: Some(1.0),
         coat_margin: Some(1.25),
+        edge_margin: None,
         ..FitOptions::default()
     };
     let coated = LambertMicrofacet {
@@ -147,6 +150,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
             f0: [0.04; 3],
             alpha: 0.04,
         }),
+        edge: None,
     };
     let truth = tabulate(&coated);
     let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
@@ -172,6 +176,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
 
     let plain = LambertMicrofacet {
         coat: None,
+        edge: None,
         ..coated
     };
     let truth = tabulate(&plain);
@@ -310,6 +315,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             max_iterations: 20,
             beckmann_margin: None,
             coat_margin: None,
+            edge_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

@@ -486,6 +486,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         rotation: 0.0,
         specular: 1.0,
         coat: None,
+        edge: None,
     };
     let truth = burnish::materials::tabulate(&truth_brdf);
     let mut table = SparseTable::new(Policy::Mean);
@@ -519,6 +520,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         margin_nats: f64::NEG_INFINITY,
         beckmann_margin: None,
         coat_margin: None,
+        edge_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
     fitted.apply_all(&changes);

@@ -425,6 +425,7 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
         margin_nats: f64::NEG_INFINITY,
         beckmann_margin: None,
         coat_margin: None,
+        edge_margin: None,
     };
     let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
     worker.send(Command::SetPriorMean(always));

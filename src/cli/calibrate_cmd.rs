@@ -55,7 +55,8 @@ pub struct CalibrateArgs {
     /// Where the prior is centred, to score: database, fitted (Lambert + GGX fitted to the
     /// paint) or fitted:M (when the evidence gains more than M nats); a fitted one may add
     /// +beckmann (a Beckmann lobe where it fits better) or +beckmann:R (R times better), and
-    /// +coat or +coat:R (a clear coat over the lobe, likewise).
+    /// +coat or +coat:R (a clear coat over the lobe, likewise), and +edge or +edge:R (a
+    /// conductor's Fresnel with an edge tint, likewise).
     #[arg(long, value_delimiter = ',')]
     pub mean: Option<Vec<crate::solver::PriorMean>>,
     /// Paint to score the candidates on: hdr, ldr or hdr,ldr (default: both).

@@ -103,7 +103,10 @@ pub struct ReconstructArgs {
     /// the default, fitted:3+beckmann, as calibrated) or +beckmann:R (R times better), and
     /// +coat or +coat:R (a clear coat over the lobe where it fits better by the factor R;
     /// not the default: on the calibration's single-lobe materials it fitted a coat that
-    /// extrapolated worse).
+    /// extrapolated worse), and +edge or +edge:R (a metal's exact Fresnel with an edge tint per
+    /// channel instead of Schlick's where it fits better by the factor R; not the default
+    /// yet: it recovers conductors that several views or clipped 8-bit paint show, and costs
+    /// a third fit).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

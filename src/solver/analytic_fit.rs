@@ -45,6 +45,22 @@ pub struct LambertMicrofacet {
     /// A clear coat over the first lobe ([`FitOptions::coat_margin`]): a second, isotropic lobe
     /// of the same distribution with its own F0 and roughness.
     pub coat: Option<Coat>,
+    /// The lobe's edge tint per channel ([`FitOptions::edge_margin`]): its Fresnel is then a
+    /// conductor's, exact, with reflectance `f0` at normal incidence
+    /// ([`conductor_from_edge_tint`]); `None`: Schlick's.
+    pub edge: Option<[f64; 3]>,
+}
+
+/// Gulbrandsen's artist-friendly conductor (2014): the index of refraction η and extinction κ
+/// whose Fresnel reflectance is `r` at normal incidence, the edge tint `g` in [0, 1] choosing
+/// between a dielectric (0: κ = 0, η = (1 + √r)/(1 − √r)) and a strong metal (1: η =
+/// (1 − r)/(1 + r)). Every η, κ a real metal or dielectric has between the two is reached.
+pub fn conductor_from_edge_tint(r: f64, g: f64) -> (f64, f64) {
+    let r = r.clamp(0.0, 0.9999);
+    let root = r.sqrt();
+    let n = g * (1.0 - r) / (1.0 + r) + (1.0 - g) * (1.0 + root) / (1.0 - root);
+    let k2 = (r * (n + 1.0).powi(2) - (n - 1.0).powi(2)) / (1.0 - r);
+    (n, k2.max(0.0).sqrt())
 }
 
 /// The clear coat of a [`LambertMicrofacet`]: a lobe with Schlick Fresnel from `f0`, weight 1.
@@ -69,10 +85,24 @@ impl LambertMicrofacet {
                 alpha_x: self.alpha_x,
                 alpha_y: self.alpha_y,
                 rotation: self.rotation,
-                fresnel: Fresnel::Schlick { f0: self.f0 },
+                fresnel: self.fresnel(),
                 tint: [self.specular; 3],
             },
         )
+    }
+
+    /// The first lobe's Fresnel: Schlick's from F0, or with an edge tint the conductor it names.
+    fn fresnel(&self) -> Fresnel {
+        match self.edge {
+            None => Fresnel::Schlick { f0: self.f0 },
+            Some(edge) => {
+                let conductors = [0, 1, 2].map(|c| conductor_from_edge_tint(self.f0[c], edge[c]));
+                Fresnel::Conductor {
+                    eta: conductors.map(|(n, _)| n),
+                    k: conductors.map(|(_, k)| k),
+                }
+            }
+        }
     }
 
     /// The coat as the library's microfacet lobe, if there is one.
@@ -95,11 +125,17 @@ impl LambertMicrofacet {
         if !visible {
             return [0.0; 3];
         }
+        let fresnel = match self.edge {
+            // Schlick's per channel, as before edge tints: the same bits as `Fresnel::eval`.
+            None => self.f0.map(|f| schlick(f, cos_d)),
+            Some(_) if dg == 0.0 => [0.0; 3],
+            Some(_) => self.fresnel().eval(cos_d),
+        };
         std::array::from_fn(|c| {
             let specular = if dg == 0.0 {
                 0.0
             } else {
-                self.specular * schlick(self.f0[c], cos_d) * dg
+                self.specular * fresnel[c] * dg
             };
             let mut rho = self.albedo[c] * FRAC_1_PI + specular;
             if let Some(second) = self.coat
@@ -138,7 +174,10 @@ const ALPHA_MAX: f64 = 1.5;
 const P_ONE: usize = 10;
 /// With a second lobe: the logit of its grey F0 within the dielectric range and its
 /// log-roughness logit after those.
-const P: usize = 12;
+const P_COAT: usize = 12;
+/// With an edge tint: its three logits after those.
+const EDGE: usize = P_COAT;
+const P: usize = EDGE + 3;
 /// The parameters D·G of the first lobe depends on (its roughnesses and turn), and that of
 /// the second (its roughness).
 const SHAPE: [usize; 3] = [6, 7, 8];
@@ -151,12 +190,47 @@ const COAT_SHAPE: usize = 11;
 const COAT_F0_MIN: f64 = 0.02;
 const COAT_F0_MAX: f64 = 0.08;
 
-/// A parameter vector; only the first [`param_count`] entries are used.
+/// A parameter vector; the fit varies only the entries [`Shape::active`] lists.
 type Params = [f64; P];
 
-/// How many parameters a model with or without a second lobe has.
-fn param_count(two_lobes: bool) -> usize {
-    if two_lobes { P } else { P_ONE }
+/// What the fit varies beyond one lobe's ten parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Shape {
+    distribution: Distribution,
+    /// A clear coat (a second lobe).
+    two_lobes: bool,
+    /// An edge tint per channel (a conductor's exact Fresnel instead of Schlick's).
+    edge: bool,
+}
+
+impl Shape {
+    fn one_lobe(distribution: Distribution) -> Self {
+        Self {
+            distribution,
+            two_lobes: false,
+            edge: false,
+        }
+    }
+
+    /// The indices of `Params` the fit varies, in order, and how many there are.
+    fn active(self) -> ([usize; P], usize) {
+        let mut indices = [0; P];
+        let mut n = 0;
+        let mut take = |range: std::ops::Range<usize>| {
+            for i in range {
+                indices[n] = i;
+                n += 1;
+            }
+        };
+        take(0..P_ONE);
+        if self.two_lobes {
+            take(P_ONE..P_COAT);
+        }
+        if self.edge {
+            take(EDGE..P);
+        }
+        (indices, n)
+    }
 }
 
 fn logistic(x: f64) -> f64 {
@@ -179,7 +253,12 @@ fn alpha_param(alpha: f64) -> f64 {
     logit((alpha.ln() - ALPHA_MIN.ln()) / (ALPHA_MAX / ALPHA_MIN).ln())
 }
 
-fn model_of(theta: &Params, distribution: Distribution, two_lobes: bool) -> LambertMicrofacet {
+fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
+    let Shape {
+        distribution,
+        two_lobes,
+        edge,
+    } = shape;
     LambertMicrofacet {
         albedo: [0, 1, 2].map(|c| logistic(theta[c])),
         f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
@@ -193,6 +272,7 @@ fn model_of(theta: &Params, distribution: Distribution, two_lobes: bool) -> Lamb
             f0: [COAT_F0_MIN + (COAT_F0_MAX - COAT_F0_MIN) * logistic(theta[P_ONE]); 3],
             alpha: alpha_of(theta[COAT_SHAPE]),
         }),
+        edge: edge.then(|| [0, 1, 2].map(|c| logistic(theta[EDGE + c]))),
     }
 }
 
@@ -210,6 +290,11 @@ fn params_of(model: &LambertMicrofacet) -> Params {
         let grey = (second.f0[0] + second.f0[1] + second.f0[2]) / 3.0;
         theta[P_ONE] = logit((grey - COAT_F0_MIN) / (COAT_F0_MAX - COAT_F0_MIN));
         theta[COAT_SHAPE] = alpha_param(second.alpha);
+    }
+    if let Some(edge) = model.edge {
+        for c in 0..3 {
+            theta[EDGE + c] = logit(edge[c]);
+        }
     }
     theta
 }
@@ -244,6 +329,11 @@ pub struct FitOptions {
     /// residual and its brightness-weighted one are both below one lobe's divided by this
     /// factor (two lobes always fit at least as well, so it is above 1); `None`: one lobe.
     pub coat_margin: Option<f64>,
+    /// Also fit an edge tint per channel (the lobe's Fresnel a conductor's, exact, rather
+    /// than Schlick's) from the chosen fit, and keep it when its RMS log residual and its
+    /// brightness-weighted one are both below Schlick's divided by this factor; `None`:
+    /// Schlick's.
+    pub edge_margin: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -255,6 +345,7 @@ impl Default for FitOptions {
             max_iterations: 80,
             beckmann_margin: None,
             coat_margin: None,
+            edge_margin: None,
         }
     }
 }
@@ -308,7 +399,7 @@ pub fn fit_lambert_microfacet_bounded(
     let starts = starting_points(bins);
     if observations.is_empty() {
         return FitResult {
-            model: model_of(&starts[0], Distribution::Ggx, false),
+            model: model_of(&starts[0], Shape::one_lobe(Distribution::Ggx)),
             rms_log_residual: 0.0,
             starts: 0,
             iterations: 0,
@@ -317,15 +408,19 @@ pub fn fit_lambert_microfacet_bounded(
     let residuals = 3.0 * observations.len() as f64;
     let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
     let weighted = |fit: &ShapeFit| brightness_weighted_rms(&observations, &fit.model());
-    let mut best = fit_shape(&observations, &starts, Distribution::Ggx, false, options);
+    let mut best = fit_shape(
+        &observations,
+        &starts,
+        Shape::one_lobe(Distribution::Ggx),
+        options,
+    );
     let mut iterations = best.iterations;
     let mut tried = starts.len();
     if let Some(margin) = options.beckmann_margin {
         let beckmann = fit_shape(
             &observations,
             &starts,
-            Distribution::Beckmann,
-            false,
+            Shape::one_lobe(Distribution::Beckmann),
             options,
         );
         iterations += beckmann.iterations;
@@ -346,11 +441,36 @@ pub fn fit_lambert_microfacet_bounded(
         // peak for the tails. A coat can hold the peak, but two lobes always fit at least as
         // well, so it must earn its place by the margin.
         let starts = coat_starts(&best.theta);
-        let two = fit_shape(&observations, &starts, best.distribution, true, options);
+        let shape = Shape {
+            two_lobes: true,
+            ..best.shape
+        };
+        let two = fit_shape(&observations, &starts, shape, options);
         iterations += two.iterations;
         tried += starts.len();
         if rms(two.cost) * margin < rms(best.cost) && weighted(&two) * margin < weighted(&best) {
             best = two;
+        }
+    }
+    if let Some(margin) = options.edge_margin {
+        // Schlick's rise is one curve for every F0, where a metal's reflectance can dip or
+        // climb at mid angles. One view sees one θ_d and cannot tell; views at several θ_d
+        // of a metal disagree with any Schlick lobe, and the fit then bends the lobe's width
+        // and height to meet them, which where the peak is clipped (8-bit paint) moves the
+        // peak it extrapolates far off. The edge tint starts where the conductor is closest
+        // to the Schlick fit, so what it changes is what the paint asks for.
+        let start = edge_start(&best.theta, best.shape);
+        let shape = Shape {
+            edge: true,
+            ..best.shape
+        };
+        let tinted = fit_shape(&observations, &[start], shape, options);
+        iterations += tinted.iterations;
+        tried += 1;
+        if rms(tinted.cost) * margin < rms(best.cost)
+            && weighted(&tinted) * margin < weighted(&best)
+        {
+            best = tinted;
         }
     }
     FitResult {
@@ -364,7 +484,7 @@ pub fn fit_lambert_microfacet_bounded(
 /// Starts for a coat beside a fitted first lobe (`theta`): sharper and broader than it, at
 /// the low and high end of a dielectric's F0.
 fn coat_starts(theta: &Params) -> Vec<Params> {
-    let first = model_of(theta, Distribution::Ggx, false);
+    let first = model_of(theta, Shape::one_lobe(Distribution::Ggx));
     let alpha = (first.alpha_x * first.alpha_y).sqrt();
     let mut starts = Vec::new();
     for second_alpha in [alpha / 4.0, alpha * 4.0] {
@@ -376,6 +496,34 @@ fn coat_starts(theta: &Params) -> Vec<Params> {
         }
     }
     starts
+}
+
+/// The start of an edge-tinted fit from a Schlick fit `theta`: per channel, the edge tint
+/// whose conductor is closest to Schlick's curve at that F0 over the incidence cosines.
+fn edge_start(theta: &Params, shape: Shape) -> Params {
+    let schlick_fit = model_of(theta, shape);
+    let mut start = *theta;
+    for c in 0..3 {
+        let f0 = schlick_fit.f0[c];
+        let distance = |g: f64| -> f64 {
+            let (eta, k) = conductor_from_edge_tint(f0, g);
+            (0..=16)
+                .map(|i| {
+                    let cos = i as f64 / 16.0;
+                    let d =
+                        crate::materials::models::fresnel_conductor(cos, eta, k) - schlick(f0, cos);
+                    d * d
+                })
+                .sum()
+        };
+        // Inside (0, 1): a saturated logistic would not move.
+        let best = (1..40)
+            .map(|i| 0.025 * i as f64)
+            .min_by(|&a, &b| distance(a).total_cmp(&distance(b)))
+            .unwrap_or(0.5);
+        start[EDGE + c] = logit(best);
+    }
+    start
 }
 
 /// RMS of the log residuals weighted by each bin's brightness L (luminance × cos θ_l cos θ_v)
@@ -408,13 +556,12 @@ struct ShapeFit {
     cost: f64,
     /// LM iterations run over every start.
     iterations: usize,
-    distribution: Distribution,
-    two_lobes: bool,
+    shape: Shape,
 }
 
 impl ShapeFit {
     fn model(&self) -> LambertMicrofacet {
-        model_of(&self.theta, self.distribution, self.two_lobes)
+        model_of(&self.theta, self.shape)
     }
 }
 
@@ -423,21 +570,15 @@ impl ShapeFit {
 fn fit_shape(
     observations: &[Observation],
     starts: &[Params],
-    distribution: Distribution,
-    two_lobes: bool,
+    shape: Shape,
     options: &FitOptions,
 ) -> ShapeFit {
     let mut iterations = 0;
     let mut scouted: Vec<(Params, f64)> = starts
         .iter()
         .map(|start| {
-            let (theta, cost, it) = levenberg_marquardt(
-                observations,
-                *start,
-                distribution,
-                two_lobes,
-                options.scout_iterations,
-            );
+            let (theta, cost, it) =
+                levenberg_marquardt(observations, *start, shape, options.scout_iterations);
             iterations += it;
             (theta, cost)
         })
@@ -445,13 +586,8 @@ fn fit_shape(
     scouted.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (mut best, mut best_cost) = (scouted[0].0, scouted[0].1);
     for &(theta, _) in scouted.iter().take(options.finalists.max(1)) {
-        let (theta, cost, it) = levenberg_marquardt(
-            observations,
-            theta,
-            distribution,
-            two_lobes,
-            options.max_iterations,
-        );
+        let (theta, cost, it) =
+            levenberg_marquardt(observations, theta, shape, options.max_iterations);
         iterations += it;
         if cost < best_cost {
             (best, best_cost) = (theta, cost);
@@ -461,8 +597,7 @@ fn fit_shape(
         theta: best,
         cost: best_cost,
         iterations,
-        distribution,
-        two_lobes,
+        shape,
     }
 }
 
@@ -498,6 +633,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
                 rotation: 0.0,
                 specular: 0.9,
                 coat: None,
+                edge: None,
             }));
         }
     }
@@ -512,6 +648,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
             rotation: 0.0,
             specular: 0.01,
             coat: None,
+            edge: None,
         }));
     }
     for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
@@ -524,6 +661,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
             rotation,
             specular: 0.9,
             coat: None,
+            edge: None,
         }));
     }
     starts
@@ -554,13 +692,8 @@ fn residuals_of(rho: [f64; 3], o: &Observation) -> [f64; 3] {
 }
 
 /// ½‖r‖² at `theta`.
-fn cost(
-    observations: &[Observation],
-    theta: &Params,
-    distribution: Distribution,
-    two_lobes: bool,
-) -> f64 {
-    let model = model_of(theta, distribution, two_lobes);
+fn cost(observations: &[Observation], theta: &Params, shape: Shape) -> f64 {
+    let model = model_of(theta, shape);
     let partials: Vec<f64> = observations
         .par_chunks(CHUNK)
         .map(|chunk| {
@@ -589,25 +722,25 @@ struct Stepped {
 fn normal_equations(
     observations: &[Observation],
     theta: &Params,
-    distribution: Distribution,
-    two_lobes: bool,
+    shape: Shape,
 ) -> ([f64; P * P], Params, f64) {
     const STEP: f64 = 1e-6;
-    let n = param_count(two_lobes);
-    let base = model_of(theta, distribution, two_lobes);
+    let (active, n) = shape.active();
+    let base = model_of(theta, shape);
     let lobe = base.parts().1;
     let second = base.coat_part();
-    let stepped: Vec<Stepped> = (0..n)
-        .map(|j| {
+    let stepped: Vec<Stepped> = active[..n]
+        .iter()
+        .map(|&i| {
             let mut t = *theta;
-            let h = STEP * theta[j].abs().max(1.0);
-            t[j] += h;
-            let model = model_of(&t, distribution, two_lobes);
+            let h = STEP * theta[i].abs().max(1.0);
+            t[i] += h;
+            let model = model_of(&t, shape);
             Stepped {
-                lobe: SHAPE.contains(&j).then(|| model.parts().1),
-                second: (j == COAT_SHAPE).then(|| model.coat_part()).flatten(),
+                lobe: SHAPE.contains(&i).then(|| model.parts().1),
+                second: (i == COAT_SHAPE).then(|| model.coat_part()).flatten(),
                 model,
-                h: t[j] - theta[j],
+                h: t[i] - theta[i],
             }
         })
         .collect();
@@ -692,14 +825,12 @@ fn damped_step(jtj: &[f64; P * P], jtr: &Params, lambda: f64, n: usize) -> Optio
 fn levenberg_marquardt(
     observations: &[Observation],
     mut theta: Params,
-    distribution: Distribution,
-    two_lobes: bool,
+    shape: Shape,
     max_iterations: usize,
 ) -> (Params, f64, usize) {
-    let n = param_count(two_lobes);
+    let (active, n) = shape.active();
     let mut lambda = 1e-3;
-    let (mut jtj, mut jtr, mut current) =
-        normal_equations(observations, &theta, distribution, two_lobes);
+    let (mut jtj, mut jtr, mut current) = normal_equations(observations, &theta, shape);
     let mut iterations = 0;
     while iterations < max_iterations {
         iterations += 1;
@@ -707,8 +838,11 @@ fn levenberg_marquardt(
         // Raise the damping until a step lowers the cost (or the damping is hopeless).
         while lambda < 1e10 {
             if let Some(step) = damped_step(&jtj, &jtr, lambda, n) {
-                let trial: Params = std::array::from_fn(|i| theta[i] + step[i]);
-                let trial_cost = cost(observations, &trial, distribution, two_lobes);
+                let mut trial = theta;
+                for (j, &i) in active[..n].iter().enumerate() {
+                    trial[i] += step[j];
+                }
+                let trial_cost = cost(observations, &trial, shape);
                 if trial_cost.is_finite() && trial_cost < current {
                     let gain = (current - trial_cost) / current.max(f64::MIN_POSITIVE);
                     theta = trial;
@@ -725,7 +859,7 @@ fn levenberg_marquardt(
         if !accepted {
             break;
         }
-        (jtj, jtr, current) = normal_equations(observations, &theta, distribution, two_lobes);
+        (jtj, jtr, current) = normal_equations(observations, &theta, shape);
     }
     (theta, current, iterations)
 }
@@ -744,6 +878,7 @@ mod tests {
         rotation: 0.7,
         specular: 0.3,
         coat: None,
+        edge: None,
     };
 
     /// `eval` (through `eval_from_lobes`, which the fit's Jacobian reuses) is the library's
@@ -762,6 +897,11 @@ mod tests {
                 rotation: 0.0,
                 specular: 1.0,
                 coat: None,
+                edge: None,
+            },
+            LambertMicrofacet {
+                edge: Some([0.2, 0.6, 1.0]),
+                ..MIXED
             },
         ];
         for model in models {
@@ -787,7 +927,7 @@ mod tests {
     #[test]
     fn parametrisation_round_trips_within_bounds() {
         let model = MIXED;
-        let back = model_of(&params_of(&model), model.distribution, false);
+        let back = model_of(&params_of(&model), Shape::one_lobe(model.distribution));
         for c in 0..3 {
             assert!((back.albedo[c] - model.albedo[c]).abs() < 1e-9);
             assert!((back.f0[c] - model.f0[c]).abs() < 1e-9);
@@ -796,12 +936,130 @@ mod tests {
         assert!((back.specular - 0.3).abs() < 1e-9);
         let extreme = model_of(
             &[
-                1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3, 0.0, 0.0,
+                1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3, 0.0, 0.0, 1e3, -1e3, 0.0,
             ],
-            Distribution::Ggx,
-            false,
+            Shape {
+                edge: true,
+                ..Shape::one_lobe(Distribution::Ggx)
+            },
         );
         assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
         assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));
+        let edge = extreme.edge.expect("an edge tint");
+        assert!(edge.iter().all(|g| (0.0..=1.0).contains(g)));
+        let tinted = LambertMicrofacet {
+            edge: Some([0.1, 0.5, 0.9]),
+            ..MIXED
+        };
+        let shape = Shape {
+            edge: true,
+            ..Shape::one_lobe(tinted.distribution)
+        };
+        let back = model_of(&params_of(&tinted), shape).edge.unwrap();
+        for c in 0..3 {
+            assert!((back[c] - tinted.edge.unwrap()[c]).abs() < 1e-9);
+        }
+    }
+
+    /// 8-bit paint of gold under two lights: every bin at θ_d near 26° or near 59°, as one
+    /// orthographic view per light shows it, and the peak clipped (a bound only). Schlick's
+    /// rise is one curve for every F0 and gold's is not, so a Schlick lobe meets the two
+    /// views by bending its width and height, and the peak it extrapolates above the clip
+    /// falls far off; the edge-tinted conductor holds both views and the peak.
+    #[test]
+    fn an_edge_tint_holds_a_metals_peak_from_two_clipped_views() {
+        use crate::materials::models::Microfacet;
+        use crate::metrics::evaluate;
+        use crate::table::PAIRS;
+        let gold = Microfacet::isotropic(
+            Distribution::Ggx,
+            0.05,
+            Fresnel::Conductor {
+                eta: [0.143, 0.374, 1.442],
+                k: [3.983, 2.385, 1.603],
+            },
+        );
+        let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..PAIRS)
+            .step_by(7)
+            .filter_map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                let (l, v) = (bin_centre(lo), bin_centre(hi));
+                let theta_d = cos_half_difference(l, v).acos().to_degrees();
+                if !(24.0..28.0).contains(&theta_d) && !(57.0..61.0).contains(&theta_d) {
+                    return None;
+                }
+                // What an 8-bit pixel lit by irradiance π holds: π ρ cos θ_l, clipped at 1.
+                let clip = 1.0 / (std::f64::consts::PI * l.z.max(1e-3));
+                let rho = gold.eval(l, v);
+                let value = rho.map(|r| r.min(clip));
+                let bounds = rho.map(|r| {
+                    if r >= clip {
+                        Bound::AtLeast
+                    } else {
+                        Bound::Exact
+                    }
+                });
+                Some((pair, value, bounds))
+            })
+            .collect();
+        assert!(
+            bins.iter().any(|b| b.2.contains(&Bound::AtLeast)),
+            "no clipped peak"
+        );
+        let truth = crate::materials::tabulate(&gold);
+        let fit = |edge_margin| {
+            let options = FitOptions {
+                beckmann_margin: Some(1.0),
+                edge_margin,
+                ..FitOptions::default()
+            };
+            let model = fit_lambert_microfacet_bounded(&bins, &options).model;
+            (model, evaluate(&truth, &crate::materials::tabulate(&model)))
+        };
+        let (schlick, schlick_error) = fit(None);
+        let (tinted, tinted_error) = fit(Some(1.2));
+        println!(
+            "Schlick {schlick:?}: {:.4}\ntinted {tinted:?}: {:.4}",
+            schlick_error.relative_rmse, tinted_error.relative_rmse
+        );
+        assert!(tinted.edge.is_some(), "{tinted:?}");
+        // Measured: Schlick 0.087, the edge tint 0.0000 (gold's own η + iκ and α to 1e-12).
+        assert!(tinted_error.relative_rmse < 0.005, "{tinted_error:?}");
+        assert!(schlick_error.relative_rmse > 0.05, "{schlick_error:?}");
+    }
+
+    /// The edge tint's conductor reflects F0 at normal incidence whatever the tint; tint 0 is
+    /// the dielectric of that F0 and tint 1 the strongest metal Gulbrandsen's map allows.
+    #[test]
+    fn an_edge_tint_names_a_conductor_of_its_f0() {
+        use crate::materials::models::fresnel_conductor;
+        for r in [0.02, 0.04, 0.3, 0.65, 0.97] {
+            for g in [0.0, 0.3, 0.7, 1.0] {
+                let (n, k) = conductor_from_edge_tint(r, g);
+                assert!(n > 0.0 && k >= 0.0, "r {r} g {g}: η {n} κ {k}");
+                let f = fresnel_conductor(1.0, n, k);
+                assert!((f - r).abs() < 1e-9, "r {r} g {g}: F(0°) = {f}");
+            }
+            let (n, k) = conductor_from_edge_tint(r, 0.0);
+            assert!(k < 1e-6, "r {r}: κ {k} at tint 0");
+            assert!((n - (1.0 + r.sqrt()) / (1.0 - r.sqrt())).abs() < 1e-9);
+            let (n, _) = conductor_from_edge_tint(r, 1.0);
+            assert!((n - (1.0 - r) / (1.0 + r)).abs() < 1e-12);
+        }
+        // Gold's measured η + iκ, per channel, lies inside the map: the edge tint that gives
+        // its η gives its κ too.
+        for (eta, k) in [(0.143, 3.983), (0.374, 2.385), (1.442, 1.603)] {
+            let r = fresnel_conductor(1.0, eta, k);
+            let root = r.sqrt();
+            let (strongest, dielectric) = ((1.0 - r) / (1.0 + r), (1.0 + root) / (1.0 - root));
+            let g = (dielectric - eta) / (dielectric - strongest);
+            assert!((0.0..=1.0).contains(&g), "gold η {eta}: tint {g}");
+            let (n, reached) = conductor_from_edge_tint(r, g);
+            assert!(
+                (n - eta).abs() < 1e-9 && (reached - k).abs() < 1e-6,
+                "κ {reached} for {k}"
+            );
+        }
     }
 }

@@ -156,10 +156,12 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
         PriorMean::Fitted {
             beckmann_margin,
             coat_margin,
+            edge_margin,
             ..
         } => FitOptions {
             beckmann_margin,
             coat_margin,
+            edge_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -192,6 +194,7 @@ mod tests {
             alpha_y: 0.2,
             rotation: 0.0,
             coat: None,
+            edge: None,
         }
     }
 
@@ -296,10 +299,12 @@ mod tests {
             margin_nats: 3.0,
             beckmann_margin: Some(1.5),
             coat_margin: Some(2.0),
+            edge_margin: Some(1.2),
         };
         let options = fit_options(mean);
         assert_eq!(options.beckmann_margin, Some(1.5));
         assert_eq!(options.coat_margin, Some(2.0));
+        assert_eq!(options.edge_margin, Some(1.2));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

@@ -175,13 +175,18 @@ impl PriorMean {
     /// far off: a database metal (GGX α 0.045, conductor Fresnel) under the bench's three
     /// lights in 8-bit went 0.032 → 0.237 → 0.319 with one, two and three views; with
     /// `+edge:1.2` 0.032 → 0.0035 → 0.0025 (with a Schlick truth: 0.0016 → 0.0019 → 0.0012).
-    /// On the bench (R = 1.2) one view 0.233 → 0.230 and three views 0.172 → 0.169, but a
-    /// suggested second view of the glossy plastic 0.007 → 0.096 (R = 1.5 too): its green and
-    /// blue channels took a metal's tint to follow what Lambert misses at θ_d = 80°. On the
-    /// folds (20 of 24 materials): geometric mean 0.043 → 0.030 (R = 1.2 and 1.5), metals
-    /// exact in HDR, a thin film 0.072 → 0.113 at R = 1.2. Its fit costs about 3× a Schlick
-    /// one (conductor Fresnel per bin and step), so the solve of two views took 5–7 s against
-    /// 1.5 s.
+    /// On the folds (300-material bases, 96 cases) `+edge:1.5` takes the geometric mean
+    /// 0.0554 → 0.0351, one view 0.241 / 0.087 → 0.237 / 0.087, three views 0.141 / 0.051 →
+    /// 0.138 / 0.046, 8-bit three views 0.196 / 0.058 → 0.194 / 0.056 (8-bit one view
+    /// unchanged), and cases hurt by a view 12 → 11; metals become exact in HDR (R = 1.2:
+    /// 0.0346, but a thin film 0.072 → 0.113). On the bench (R = 1.2) one view 0.233 → 0.230
+    /// and three views 0.172 → 0.169, but a suggested second view of the glossy plastic
+    /// 0.007 → 0.096 (R = 1.5 too): its green and blue channels took a metal's tint to follow
+    /// what Lambert misses at θ_d = 80°. Why it is not the default yet: besides that plastic,
+    /// the pipeline tests' 8-bit promise fails on a chrome, whose HDR view the tint makes
+    /// nearly exact (0.0039) while one 8-bit view, which cannot tell the tint, stays at 0.066.
+    /// It adds 0–30% to a reconstruction's solve (one 512² view 1.13–1.22 s → 1.31–1.50 s,
+    /// two views 1.18 → 1.12 s, on 2 cores).
     pub const FITTED: Self = Self::Fitted {
         margin_nats: EVIDENCE_MARGIN_NATS,
         beckmann_margin: Some(1.0),

@@ -593,6 +593,16 @@ pub(crate) const SMALL_TEST_SPEC: BasisSpec = BasisSpec {
     power_iterations: 2,
 };
 
+/// The basis of [`SMALL_TEST_SPEC`], built once for every library test that only reads it.
+#[cfg(test)]
+pub(crate) fn small_test_basis() -> std::sync::Arc<crate::basis::Basis> {
+    static BASIS: std::sync::OnceLock<std::sync::Arc<crate::basis::Basis>> =
+        std::sync::OnceLock::new();
+    BASIS
+        .get_or_init(|| std::sync::Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {})))
+        .clone()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -118,15 +118,14 @@ impl OracleProjector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::basis::build::SMALL_TEST_SPEC;
-    use crate::basis::build_basis;
+    use crate::basis::build::small_test_basis;
     use crate::solver::Reconstruction;
 
     /// A table the basis holds projects back onto the coefficients that made it (to within
     /// the table's f32 rounding), and the mean material onto zeros.
     #[test]
     fn a_table_in_the_basis_projects_back_onto_its_coefficients() {
-        let basis = Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {}));
+        let basis = small_test_basis();
         let projector = OracleProjector::new(basis.clone());
         let scale: Vec<f64> = basis.variances().iter().map(|v| 0.2 * v.sqrt()).collect();
         let x: Vec<[f64; 3]> = scale

@@ -171,16 +171,12 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::basis::build::{SMALL_TEST_SPEC, build_basis};
+    use crate::basis::build::{SMALL_TEST_SPEC, build_basis, small_test_basis};
     use crate::materials::models::Distribution;
     use crate::solver::{BinChange, EXACT, PriorModel, Reconstruction, Regularization, Solver};
-    use std::sync::OnceLock;
 
     fn basis() -> Arc<Basis> {
-        static BASIS: OnceLock<Arc<Basis>> = OnceLock::new();
-        BASIS
-            .get_or_init(|| Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {})))
-            .clone()
+        small_test_basis()
     }
 
     /// An orange plastic: inside the fit's own family, so a fit can recover it.

@@ -134,11 +134,10 @@ impl Posterior {
 
 #[cfg(test)]
 mod tests {
-    use crate::basis::build::SMALL_TEST_SPEC;
-    use crate::basis::{MAP_EPSILON, build_basis, cos_weight};
+    use crate::basis::build::small_test_basis;
+    use crate::basis::{MAP_EPSILON, cos_weight};
     use crate::solver::{BinChange, EXACT, Regularization, Solver};
     use crate::table::{PAIRS, PairIndex};
-    use std::sync::Arc;
 
     /// The posterior's shortcuts against its definition, on a solve of a few hundred bins
     /// spread over θ_d: a design row splits the basis row between the sets its θ_d blends,
@@ -147,7 +146,7 @@ mod tests {
     /// times √(ψᵀΣψ + the basis's residual) at every pair.
     #[test]
     fn the_posterior_tables_follow_from_its_covariance() {
-        let basis = Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {}));
+        let basis = small_test_basis();
         let k = basis.components();
         let mut solver = Solver::new(basis.clone(), Regularization::Auto);
         let painted: Vec<PairIndex> = (0..400)

@@ -152,20 +152,16 @@ impl Solver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::basis::build::{SMALL_TEST_SPEC, build_basis};
+    use crate::basis::build::small_test_basis;
     use crate::basis::{Basis, cos_weight};
     use crate::solver::prior::PriorModel;
     use crate::solver::{BinChange, Regularization};
     use crate::table::PAIRS;
     use Bound::{AtLeast, AtMost, Exact};
     use std::sync::Arc;
-    use std::sync::OnceLock;
 
     fn basis() -> Arc<Basis> {
-        static BASIS: OnceLock<Arc<Basis>> = OnceLock::new();
-        BASIS
-            .get_or_init(|| Arc::new(build_basis(&SMALL_TEST_SPEC, &|_| {})))
-            .clone()
+        small_test_basis()
     }
 
     fn solver(censoring: Censoring) -> Solver {

@@ -332,7 +332,8 @@ pub struct FitOptions {
     /// Also fit an edge tint per channel (the lobe's Fresnel a conductor's, exact, rather
     /// than Schlick's) from the chosen fit, and keep it when its RMS log residual and its
     /// brightness-weighted one are both below Schlick's divided by this factor; `None`:
-    /// Schlick's.
+    /// Schlick's. Tried only where the chosen fit is a conductor's, its lobe's F0 above its
+    /// diffuse albedo in every channel.
     pub edge_margin: Option<f64>,
 }
 
@@ -452,13 +453,18 @@ pub fn fit_lambert_microfacet_bounded(
             best = two;
         }
     }
-    if let Some(margin) = options.edge_margin {
+    if let Some(margin) = options
+        .edge_margin
+        .filter(|_| conductor_like(&best.model()))
+    {
         // Schlick's rise is one curve for every F0, where a metal's reflectance can dip or
         // climb at mid angles. One view sees one θ_d and cannot tell; views at several θ_d
         // of a metal disagree with any Schlick lobe, and the fit then bends the lobe's width
         // and height to meet them, which where the peak is clipped (8-bit paint) moves the
         // peak it extrapolates far off. The edge tint starts where the conductor is closest
-        // to the Schlick fit, so what it changes is what the paint asks for.
+        // to the Schlick fit, so what it changes is what the paint asks for. Only a lobe that
+        // outshines its diffuse may take one: a tint free to bend a plastic's Fresnel at
+        // grazing angles follows what Lambert misses of its diffuse there instead.
         let start = edge_start(&best.theta, best.shape);
         let shape = Shape {
             edge: true,
@@ -479,6 +485,12 @@ pub fn fit_lambert_microfacet_bounded(
         starts: tried,
         iterations,
     }
+}
+
+/// Whether a fit's lobe outshines its diffuse in every channel, as a conductor's does: light
+/// that enters a metal is absorbed, so a metal has no diffuse.
+fn conductor_like(model: &LambertMicrofacet) -> bool {
+    (0..3).all(|c| model.albedo[c] <= model.specular * model.f0[c])
 }
 
 /// Starts for a coat beside a fitted first lobe (`theta`): sharper and broader than it, at
@@ -1027,6 +1039,62 @@ mod tests {
         // Measured: Schlick 0.087, the edge tint 0.0000 (gold's own η + iκ and α to 1e-12).
         assert!(tinted_error.relative_rmse < 0.005, "{tinted_error:?}");
         assert!(schlick_error.relative_rmse > 0.05, "{schlick_error:?}");
+    }
+
+    /// A glossy plastic painted at a middle and a grazing θ_d: its diffuse is rough (Oren–Nayar),
+    /// which Lambert misses most at grazing angles, and a tint free to bend the lobe's Fresnel
+    /// there would follow that misfit and name the plastic a metal. A conductor has no
+    /// diffuse, so a lobe over a diffuse keeps Schlick's.
+    #[test]
+    fn a_plastic_seen_at_grazing_angles_keeps_schlicks_fresnel() {
+        use crate::materials::models::{Mixture, OrenNayar};
+        use crate::table::PAIRS;
+        let plastic = Mixture {
+            parts: vec![
+                (
+                    1.0,
+                    Box::new(OrenNayar {
+                        albedo: [0.7, 0.35, 0.15],
+                        sigma: 1.2,
+                    }),
+                ),
+                (
+                    1.0,
+                    Box::new(Microfacet::isotropic(
+                        Distribution::Ggx,
+                        0.2,
+                        Fresnel::Schlick { f0: [0.04; 3] },
+                    )),
+                ),
+            ],
+        };
+        let bins: Vec<(PairIndex, [f64; 3])> = (0..PAIRS)
+            .step_by(2)
+            .filter_map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                let (l, v) = (bin_centre(lo), bin_centre(hi));
+                let theta_d = cos_half_difference(l, v).acos().to_degrees();
+                ((20.0..24.0).contains(&theta_d) || (82.0..86.0).contains(&theta_d))
+                    .then(|| (pair, plastic.eval(l, v)))
+            })
+            .collect();
+        let options = FitOptions {
+            beckmann_margin: Some(1.0),
+            edge_margin: Some(1.0),
+            ..FitOptions::default()
+        };
+        let fit = fit_lambert_microfacet(&bins, &options).model;
+        println!("{fit:?}");
+        assert!(fit.edge.is_none(), "{fit:?}");
+        assert!(!conductor_like(&fit));
+        let gold_like = LambertMicrofacet {
+            albedo: [0.0; 3],
+            f0: [0.9, 0.7, 0.35],
+            specular: 1.0,
+            ..fit
+        };
+        assert!(conductor_like(&gold_like));
     }
 
     /// The edge tint's conductor reflects F0 at normal incidence whatever the tint; tint 0 is

@@ -10,7 +10,7 @@ use burnish::metrics::{Evaluation, evaluate};
 use burnish::scene::{
     GBuffer, LightSettings, Object, Scene, render_table, samples_from_file, write_image,
 };
-use burnish::solver::{Regularization, Solver, SparseTable};
+use burnish::solver::{PriorMean, Regularization, Solver, SparseTable};
 use burnish::table::SymTable;
 use common::small_basis;
 
@@ -37,6 +37,16 @@ fn reconstruct_from_paintings(
     dir: &std::path::Path,
     extension: &str,
 ) -> SymTable {
+    reconstruct_with_mean(truth, lights, dir, extension, PriorMean::FITTED)
+}
+
+fn reconstruct_with_mean(
+    truth: &SymTable,
+    lights: &[(f64, f64)],
+    dir: &std::path::Path,
+    extension: &str,
+    prior_mean: PriorMean,
+) -> SymTable {
     let basis = small_basis(20);
     let mut table = SparseTable::default();
     let mut changes = Vec::new();
@@ -62,6 +72,7 @@ fn reconstruct_from_paintings(
             .unwrap();
     }
     let mut solver = Solver::new(basis.clone(), Regularization::Auto);
+    solver.set_mean_kind(prior_mean);
     solver.apply_all(&changes);
     solver.refit_prior_mean();
     solver.solve().reconstruction(basis).materialize()
@@ -159,33 +170,61 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
 /// 8-bit paint is censored data: a clipped highlight only says "at least this bright". On
 /// the six held-out materials painted once as PNG (clipped at 1, quantised) and once as EXR,
 /// the 8-bit reconstruction must stay close to the HDR one, material by material.
+///
+/// Close to what HDR paint tells under Schlick's Fresnel: a metal's exact Fresnel (the fitted
+/// reference's edge tint) is told by the height of its peak against its shoulders, which an
+/// HDR view holds and a clipped 8-bit view does not, so HDR paint of a metal can be exact
+/// where one 8-bit view stays where Schlick's reference leaves it. The edge tint must not
+/// make 8-bit paint worse than Schlick's reference does.
 #[test]
 fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     let dir = tempfile::tempdir().unwrap();
-    let (mut hdr, mut ldr) = (Vec::new(), Vec::new());
+    let schlick = match PriorMean::FITTED {
+        PriorMean::Fitted {
+            margin_nats,
+            beckmann_margin,
+            coat_margin,
+            ..
+        } => PriorMean::Fitted {
+            margin_nats,
+            beckmann_margin,
+            coat_margin,
+            edge_margin: None,
+        },
+        PriorMean::Database => PriorMean::Database,
+    };
+    let (mut hdr, mut ldr, mut hdr_schlick, mut ldr_schlick) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for i in 0..MATERIALS {
         let truth = tabulate(&*material(HELD_OUT_SEED, i).brdf);
-        hdr.push(evaluate(
-            &truth,
-            &reconstruct_from_paintings(&truth, &LIGHTS[..1], dir.path(), "exr"),
-        ));
-        ldr.push(evaluate(
-            &truth,
-            &reconstruct_from_paintings(&truth, &LIGHTS[..1], dir.path(), "png"),
-        ));
+        let score = |extension, mean| {
+            evaluate(
+                &truth,
+                &reconstruct_with_mean(&truth, &LIGHTS[..1], dir.path(), extension, mean),
+            )
+        };
+        hdr.push(score("exr", PriorMean::FITTED));
+        ldr.push(score("png", PriorMean::FITTED));
+        hdr_schlick.push(score("exr", schlick));
+        ldr_schlick.push(score("png", schlick));
         println!(
-            "{:<60} relative RMSE HDR {:.4} 8-bit {:.4}, log RMSE {:.4} {:.4}",
+            "{:<60} relative RMSE HDR {:.4} 8-bit {:.4} (Schlick's {:.4} {:.4}), log RMSE {:.4} {:.4} ({:.4} {:.4})",
             material(HELD_OUT_SEED, i).label,
             hdr[i].relative_rmse,
             ldr[i].relative_rmse,
+            hdr_schlick[i].relative_rmse,
+            ldr_schlick[i].relative_rmse,
             hdr[i].log_rmse,
-            ldr[i].log_rmse
+            ldr[i].log_rmse,
+            hdr_schlick[i].log_rmse,
+            ldr_schlick[i].log_rmse,
         );
     }
     // Measured on the 48-material test basis: the median relative RMSE is 0.136 HDR, 0.141 8-bit;
     // the largest gap is the clear coat's (0.745 HDR, 0.894 8-bit: its highlight is clipped
     // and the fit sees only its shoulders). Before clipped bins were taken at the reference
     // where it already meets them, chrome came out at 0.95 from 8-bit paint against 0.065.
+    // With the edge tint, chrome's HDR view is 0.0039 and its 8-bit view stays at 0.066.
     let median_hdr = median(&hdr, relative_rmse);
     let median_ldr = median(&ldr, relative_rmse);
     assert!(
@@ -194,17 +233,26 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     );
     for i in 0..MATERIALS {
         let label = material(HELD_OUT_SEED, i).label;
+        let hdr_relative = hdr[i].relative_rmse.max(hdr_schlick[i].relative_rmse);
+        let hdr_log = hdr[i].log_rmse.max(hdr_schlick[i].log_rmse);
         assert!(
-            ldr[i].relative_rmse <= 1.25 * hdr[i].relative_rmse,
-            "{label}: 8-bit relative RMSE {:.4} against HDR {:.4}",
+            ldr[i].relative_rmse <= 1.25 * hdr_relative,
+            "{label}: 8-bit relative RMSE {:.4} against HDR {hdr_relative:.4}",
             ldr[i].relative_rmse,
-            hdr[i].relative_rmse
         );
         assert!(
-            ldr[i].log_rmse <= 1.2 * hdr[i].log_rmse,
-            "{label}: 8-bit log RMSE {:.4} against HDR {:.4}",
+            ldr[i].log_rmse <= 1.2 * hdr_log,
+            "{label}: 8-bit log RMSE {:.4} against HDR {hdr_log:.4}",
             ldr[i].log_rmse,
-            hdr[i].log_rmse
+        );
+        assert!(
+            ldr[i].relative_rmse <= 1.01 * ldr_schlick[i].relative_rmse
+                && ldr[i].log_rmse <= 1.01 * ldr_schlick[i].log_rmse,
+            "{label}: the edge tint made 8-bit paint worse: relative RMSE {:.4} against {:.4}, log RMSE {:.4} against {:.4}",
+            ldr[i].relative_rmse,
+            ldr_schlick[i].relative_rmse,
+            ldr[i].log_rmse,
+            ldr_schlick[i].log_rmse,
         );
     }
 }

@@ -99,14 +99,13 @@ pub struct ReconstructArgs {
     /// Where the prior is centred without --start: fitted:M (Lambert + GGX fitted to the
     /// paint, when it makes the paint e^M times more likely than the database's mean),
     /// fitted (always) or database (the database's mean material); a fitted one may add
-    /// +beckmann (a Beckmann lobe where it fits both the paint and its bright bins better;
-    /// the default, fitted:3+beckmann, as calibrated) or +beckmann:R (R times better), and
-    /// +coat or +coat:R (a clear coat over the lobe where it fits better by the factor R;
-    /// not the default: on the calibration's single-lobe materials it fitted a coat that
-    /// extrapolated worse), and +edge or +edge:R (a metal's exact Fresnel with an edge tint per
-    /// channel instead of Schlick's where it fits better by the factor R; not the default
-    /// yet: it recovers conductors that several views or clipped 8-bit paint show, and costs
-    /// a third fit).
+    /// +beckmann (a Beckmann lobe where it fits both the paint and its bright bins better)
+    /// or +beckmann:R (R times better), +coat or +coat:R (a clear coat over the lobe where it
+    /// fits better by the factor R; not the default: on the calibration's single-lobe
+    /// materials it fitted a coat that extrapolated worse), and +edge or +edge:R (a metal's
+    /// exact Fresnel with an edge tint per channel instead of Schlick's, tried where the fit
+    /// has no more diffuse than specular, kept where it fits better by the factor R). The
+    /// default, fitted:3+beckmann+edge:1.5, is what `burnish calibrate` chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -167,31 +167,34 @@ impl PriorMean {
     /// 0.782 at one view). On a coat over a coloured lobe it is what fits: relative RMSE 0.93
     /// with one lobe, 0.04 with the coat (tests/bench.rs).
     ///
-    /// An edge tint (`+edge:R`: the lobe's Fresnel a conductor's, exact, with a tint per
-    /// channel, instead of Schlick's) is not part of the default yet. Schlick's rise is one
-    /// curve for every F0; a metal's dips or climbs at mid angles, so views at several θ_d of
-    /// a metal disagree with every Schlick lobe, and the fit bends the lobe's width and height
-    /// to meet them. Where the peak is clipped (8-bit paint) that moves the extrapolated peak
-    /// far off: a database metal (GGX α 0.045, conductor Fresnel) under the bench's three
-    /// lights in 8-bit went 0.032 → 0.237 → 0.319 with one, two and three views; with
-    /// `+edge:1.2` 0.032 → 0.0035 → 0.0025 (with a Schlick truth: 0.0016 → 0.0019 → 0.0012).
-    /// On the folds (300-material bases, 96 cases) `+edge:1.5` takes the geometric mean
-    /// 0.0554 → 0.0351, one view 0.241 / 0.087 → 0.237 / 0.087, three views 0.141 / 0.051 →
-    /// 0.138 / 0.046, 8-bit three views 0.196 / 0.058 → 0.194 / 0.056 (8-bit one view
-    /// unchanged), and cases hurt by a view 12 → 11; metals become exact in HDR (R = 1.2:
-    /// 0.0346, but a thin film 0.072 → 0.113). On the bench (R = 1.2) one view 0.233 → 0.230
-    /// and three views 0.172 → 0.169, but a suggested second view of the glossy plastic
-    /// 0.007 → 0.096 (R = 1.5 too): its green and blue channels took a metal's tint to follow
-    /// what Lambert misses at θ_d = 80°. Why it is not the default yet: besides that plastic,
-    /// the pipeline tests' 8-bit promise fails on a chrome, whose HDR view the tint makes
-    /// nearly exact (0.0039) while one 8-bit view, which cannot tell the tint, stays at 0.066.
-    /// It adds 0–30% to a reconstruction's solve (one 512² view 1.13–1.22 s → 1.31–1.50 s,
-    /// two views 1.18 → 1.12 s, on 2 cores).
+    /// An edge tint (`+edge:1.5`: the lobe's Fresnel a conductor's, exact, with a tint per
+    /// channel, instead of Schlick's, kept where it fits 1.5 times better) is part of the
+    /// default. Schlick's rise is one curve for every F0; a metal's dips or climbs at mid
+    /// angles, so views at several θ_d of a metal disagree with every Schlick lobe, and the
+    /// fit bends the lobe's width and height to meet them. Where the peak is clipped (8-bit
+    /// paint) that moves the extrapolated peak far off: a database metal (GGX α 0.045,
+    /// conductor Fresnel) under the bench's three lights in 8-bit went 0.032 → 0.237 → 0.319
+    /// with one, two and three views; with the tint 0.032 → 0.0035 → 0.0025 (with a Schlick
+    /// truth: 0.0016 → 0.0019 → 0.0012). Only a conductor-like fit may take one (its lobe's F0
+    /// above its diffuse albedo in every channel): free, a glossy plastic's second view at
+    /// θ_d = 80° took a metal's tint in green and blue to follow what Lambert misses of its
+    /// diffuse there, 0.007 → 0.096. On the folds (300-material bases, 96 cases) the tint
+    /// takes the geometric mean 0.0554 → 0.0351, one view 0.241 / 0.087 → 0.237 / 0.087,
+    /// three views 0.141 / 0.051 → 0.138 / 0.046, 8-bit three views 0.196 / 0.058 → 0.194 /
+    /// 0.056 (8-bit one view unchanged), log RMSE 0.1098 → 0.1087, and cases hurt by a view
+    /// 12 → 11; metals become exact in HDR. R = 1.0 and 1.2 score 0.0337 and 0.0347 but lift
+    /// the one-view median to 0.099 (a thin film 0.072 → 0.113), and R = 1.0 lets a coat over
+    /// a brushed metal take a tint one view cannot tell (the pipeline tests: 0.118 → 0.154).
+    /// On the bench every error figure is the same or better: one view 0.2334 → 0.2302,
+    /// three views 0.1719 / 0.0345 → 0.1693 / 0.0321, a suggested second view 0.0780 →
+    /// 0.0765; 8-bit one view unchanged (0.332 / 0.091). A third fit where the gate lets it
+    /// run: it adds up to 30% to a reconstruction's solve (one 512² view 1.13–1.22 s →
+    /// 1.31–1.50 s, on 2 cores).
     pub const FITTED: Self = Self::Fitted {
         margin_nats: EVIDENCE_MARGIN_NATS,
         beckmann_margin: Some(1.0),
         coat_margin: None,
-        edge_margin: None,
+        edge_margin: Some(1.5),
     };
 
     pub fn name(&self) -> String {

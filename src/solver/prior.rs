@@ -565,6 +565,21 @@ mod tests {
                 edge_margin: None,
             })
         );
+        // As written on the command line: a margin of 1 as the bare option, and Display the
+        // same text as the name.
+        assert_eq!(PriorMean::FITTED.name(), "fitted:3+beckmann+edge:1.5");
+        assert_eq!(PriorMean::FITTED.to_string(), PriorMean::FITTED.name());
+        assert_eq!(
+            PriorMean::Fitted {
+                margin_nats: f64::NEG_INFINITY,
+                beckmann_margin: Some(1.0),
+                coat_margin: Some(1.25),
+                edge_margin: Some(1.0),
+            }
+            .to_string(),
+            "fitted+beckmann+coat:1.25+edge"
+        );
+        assert_eq!(PriorMean::Database.to_string(), "database");
         assert!("fitted+beckmann+beckmann:2".parse::<PriorMean>().is_err());
         assert!("fitted+edge:0".parse::<PriorMean>().is_err());
         assert!("database+edge".parse::<PriorMean>().is_err());
@@ -576,6 +591,40 @@ mod tests {
         assert!("fitted:nan".parse::<PriorMean>().is_err());
         assert!("fitted:".parse::<PriorMean>().is_err());
         assert!("mean".parse::<PriorMean>().is_err());
+    }
+
+    /// An α or λ must be positive: 0 would leave the normal equations singular. Numbers are
+    /// written as a person writes them, plain or, far from 1, with an exponent.
+    #[test]
+    fn regularization_refuses_zero_and_prints_short_numbers() {
+        for zero in ["0", "prior:0", "ridge:0", "-1", "prior:inf"] {
+            assert!(zero.parse::<Regularization>().is_err(), "{zero}");
+        }
+        assert_eq!(
+            Regularization::Prior { alpha: 10.0 }.to_string(),
+            "prior:10"
+        );
+        assert_eq!(
+            Regularization::Ridge { lambda: 0.25 }.to_string(),
+            "ridge:0.25"
+        );
+        assert_eq!(
+            Regularization::Prior { alpha: 1e-9 }.to_string(),
+            "prior:1e-9"
+        );
+        assert_eq!(
+            Regularization::Ridge { lambda: 2e7 }.to_string(),
+            "ridge:2e7"
+        );
+        assert_eq!(Short(0.0).to_string(), "0");
+        for r in [
+            Regularization::Auto,
+            Regularization::Gcv,
+            Regularization::Prior { alpha: 1e-300 },
+            Regularization::Ridge { lambda: 123.5 },
+        ] {
+            assert_eq!(r.to_string().parse::<Regularization>(), Ok(r));
+        }
     }
 
     #[test]

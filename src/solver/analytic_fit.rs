@@ -982,7 +982,6 @@ mod tests {
     fn an_edge_tint_holds_a_metals_peak_from_two_clipped_views() {
         use crate::materials::models::Microfacet;
         use crate::metrics::evaluate;
-        use crate::table::PAIRS;
         let gold = Microfacet::isotropic(
             Distribution::Ggx,
             0.05,
@@ -991,30 +990,24 @@ mod tests {
                 k: [3.983, 2.385, 1.603],
             },
         );
-        let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..PAIRS)
-            .step_by(7)
-            .filter_map(|p| {
-                let pair = PairIndex::from_index(p);
-                let (lo, hi) = pair_directions(pair);
-                let (l, v) = (bin_centre(lo), bin_centre(hi));
-                let theta_d = cos_half_difference(l, v).acos().to_degrees();
-                if !(24.0..28.0).contains(&theta_d) && !(57.0..61.0).contains(&theta_d) {
-                    return None;
-                }
-                // What an 8-bit pixel lit by irradiance π holds: π ρ cos θ_l, clipped at 1.
-                let clip = 1.0 / (std::f64::consts::PI * l.z.max(1e-3));
-                let rho = gold.eval(l, v);
-                let value = rho.map(|r| r.min(clip));
-                let bounds = rho.map(|r| {
-                    if r >= clip {
-                        Bound::AtLeast
-                    } else {
-                        Bound::Exact
-                    }
-                });
-                Some((pair, value, bounds))
-            })
-            .collect();
+        let bins: Vec<(PairIndex, [f64; 3], Bounds)> =
+            pairs_at_half_differences(7, &[24.0..28.0, 57.0..61.0])
+                .into_iter()
+                .map(|(pair, l, v)| {
+                    // What an 8-bit pixel lit by irradiance π holds: π ρ cos θ_l, clipped at 1.
+                    let clip = 1.0 / (std::f64::consts::PI * l.z.max(1e-3));
+                    let rho = gold.eval(l, v);
+                    let value = rho.map(|r| r.min(clip));
+                    let bounds = rho.map(|r| {
+                        if r >= clip {
+                            Bound::AtLeast
+                        } else {
+                            Bound::Exact
+                        }
+                    });
+                    (pair, value, bounds)
+                })
+                .collect();
         assert!(
             bins.iter().any(|b| b.2.contains(&Bound::AtLeast)),
             "no clipped peak"
@@ -1041,6 +1034,27 @@ mod tests {
         assert!(schlick_error.relative_rmse > 0.05, "{schlick_error:?}");
     }
 
+    /// Every `step`-th pair whose bin centres' half-difference angle θ_d (degrees) lies in
+    /// one of `ranges`, with its light and view directions: what views at those θ_d paint.
+    fn pairs_at_half_differences(
+        step: usize,
+        ranges: &[std::ops::Range<f64>],
+    ) -> Vec<(PairIndex, DVec3, DVec3)> {
+        (0..crate::table::PAIRS)
+            .step_by(step)
+            .filter_map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                let (l, v) = (bin_centre(lo), bin_centre(hi));
+                let theta_d = cos_half_difference(l, v).acos().to_degrees();
+                ranges
+                    .iter()
+                    .any(|r| r.contains(&theta_d))
+                    .then_some((pair, l, v))
+            })
+            .collect()
+    }
+
     /// A glossy plastic painted at a middle and a grazing θ_d: its diffuse is rough (Oren–Nayar),
     /// which Lambert misses most at grazing angles, and a tint free to bend the lobe's Fresnel
     /// there would follow that misfit and name the plastic a metal. A conductor has no
@@ -1048,7 +1062,6 @@ mod tests {
     #[test]
     fn a_plastic_seen_at_grazing_angles_keeps_schlicks_fresnel() {
         use crate::materials::models::{Mixture, OrenNayar};
-        use crate::table::PAIRS;
         let plastic = Mixture {
             parts: vec![
                 (
@@ -1068,17 +1081,11 @@ mod tests {
                 ),
             ],
         };
-        let bins: Vec<(PairIndex, [f64; 3])> = (0..PAIRS)
-            .step_by(2)
-            .filter_map(|p| {
-                let pair = PairIndex::from_index(p);
-                let (lo, hi) = pair_directions(pair);
-                let (l, v) = (bin_centre(lo), bin_centre(hi));
-                let theta_d = cos_half_difference(l, v).acos().to_degrees();
-                ((20.0..24.0).contains(&theta_d) || (82.0..86.0).contains(&theta_d))
-                    .then(|| (pair, plastic.eval(l, v)))
-            })
-            .collect();
+        let bins: Vec<(PairIndex, [f64; 3])> =
+            pairs_at_half_differences(2, &[20.0..24.0, 82.0..86.0])
+                .into_iter()
+                .map(|(pair, l, v)| (pair, plastic.eval(l, v)))
+                .collect();
         let options = FitOptions {
             beckmann_margin: Some(1.0),
             edge_margin: Some(1.0),

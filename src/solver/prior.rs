@@ -483,6 +483,10 @@ mod tests {
         };
         assert!(near.band_correlation_between(0, 1) > near.band_correlation_between(0, 4));
         assert!(near.band_correlation_between(0, 4) > 0.5);
+        // The sets' knots span [0, 1]: the first and last are a distance 1 apart.
+        let last = b - 1;
+        let ends = 0.5 + 0.5 * (-1.0f64 / 0.3).exp();
+        assert!((near.band_correlation_between(0, last) - ends).abs() < 1e-12);
         let p = near.band_precision();
         for i in 0..b {
             for j in 0..b {

@@ -478,6 +478,13 @@ mod tests {
             }
         }
         assert!(below > 0);
+        // The scales TABLE.md fixes, which outside readers multiply by: R 1/1500, G 1.15/1500,
+        // B 1.66/1500.
+        let stored = merl.get(0, 0);
+        assert!(close(stored * (1.0 / 1500.0), rho[0], 1e-15), "{stored}");
+        let stored = [1, 2].map(|c| merl.get(c, 0));
+        assert!(close(stored[0] * 1.15 / 1500.0, rho[1], 1e-15), "{stored:?}");
+        assert!(close(stored[1] * 1.66 / 1500.0, rho[2], 1e-15), "{stored:?}");
         for &(tl, pl, tv, pv) in &[
             (0.0, 0.0, 0.0, 0.0),
             (30.0, 10.0, 50.0, 250.0),

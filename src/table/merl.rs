@@ -453,6 +453,22 @@ mod tests {
         assert_eq!(std::fs::read(&copy).unwrap(), bytes);
     }
 
+    /// An anisotropic BRDF is averaged over evenly spaced half-vector azimuths: a term in
+    /// cos 2φ_h averages out, whatever the entry.
+    #[test]
+    fn anisotropy_averages_out_over_the_half_vector_azimuth() {
+        let merl = MerlBrdf::from_fn(|l, v| {
+            let h = (l + v).normalize();
+            [1.0 + 0.5 * (2.0 * h.y.atan2(h.x)).cos(); 3].map(|x| x / PI)
+        });
+        for index in [0, 181, 16_200 + 37, 777_777, 1_000_001] {
+            let rho = merl.rho(index);
+            assert!(close(rho[0], 1.0 / PI, 1e-12), "{index}: {rho:?}");
+        }
+        let debug = format!("{merl:?}");
+        assert!(debug.contains("MerlBrdf") && debug.contains("1458000"), "{debug}");
+    }
+
     #[test]
     fn lambertian_is_exact_above_the_horizon() {
         let a = [0.8, 0.5, 0.2];
@@ -644,7 +660,10 @@ mod tests {
         extra.push(0);
         std::fs::write(&long, &extra).unwrap();
         let err = MerlBrdf::read(&long).unwrap_err().to_string();
-        assert!(err.contains("long.binary"), "{err}");
+        assert!(
+            err.contains("long.binary") && err.contains("trailing data"),
+            "{err}"
+        );
 
         let stub = dir.path().join("stub.binary");
         std::fs::write(&stub, &bytes[..7]).unwrap();

@@ -453,13 +453,14 @@ mod tests {
         assert_eq!(std::fs::read(&copy).unwrap(), bytes);
     }
 
-    /// An anisotropic BRDF is averaged over evenly spaced half-vector azimuths: a term in
-    /// cos 2φ_h averages out, whatever the entry.
+    /// An anisotropic BRDF is averaged over evenly spaced half-vector azimuths: terms in
+    /// cos φ_h and cos 2φ_h average out, whatever the entry.
     #[test]
     fn anisotropy_averages_out_over_the_half_vector_azimuth() {
         let merl = MerlBrdf::from_fn(|l, v| {
             let h = (l + v).normalize();
-            [1.0 + 0.5 * (2.0 * h.y.atan2(h.x)).cos(); 3].map(|x| x / PI)
+            let phi_h = h.y.atan2(h.x);
+            [1.0 + 0.5 * (2.0 * phi_h).cos() + 0.25 * phi_h.cos(); 3].map(|x| x / PI)
         });
         for index in [0, 181, 16_200 + 37, 777_777, 1_000_001] {
             let rho = merl.rho(index);
@@ -467,6 +468,19 @@ mod tests {
         }
         let debug = format!("{merl:?}");
         assert!(debug.contains("MerlBrdf") && debug.contains("1458000"), "{debug}");
+        assert!(merl.is_isotropic());
+        // On or below the horizon, the lookup gives nothing.
+        let up = DVec3::Z;
+        for below in [DVec3::X, DVec3::new(0.6, 0.0, -0.8)] {
+            assert_eq!(merl.eval(below, up), [0.0; 3]);
+            assert_eq!(merl.eval(up, below), [0.0; 3]);
+        }
+        // A negative or non-finite value is stored as 0, so that only entries below the
+        // horizon are negative.
+        let odd = MerlBrdf::from_fn(|_, _| [-1.0, f64::NAN, 0.5]);
+        assert_eq!(odd.get(0, 0), 0.0);
+        assert_eq!(odd.get(1, 0), 0.0);
+        assert!(close(odd.rho(0)[2], 0.5, 1e-15));
     }
 
     #[test]

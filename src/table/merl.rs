@@ -467,7 +467,10 @@ mod tests {
             assert!(close(rho[0], 1.0 / PI, 1e-12), "{index}: {rho:?}");
         }
         let debug = format!("{merl:?}");
-        assert!(debug.contains("MerlBrdf") && debug.contains("1458000"), "{debug}");
+        assert!(
+            debug.contains("MerlBrdf") && debug.contains("1458000"),
+            "{debug}"
+        );
         assert!(merl.is_isotropic());
         // On or below the horizon, the lookup gives nothing.
         let up = DVec3::Z;
@@ -513,8 +516,14 @@ mod tests {
         let stored = merl.get(0, 0);
         assert!(close(stored * (1.0 / 1500.0), rho[0], 1e-15), "{stored}");
         let stored = [1, 2].map(|c| merl.get(c, 0));
-        assert!(close(stored[0] * 1.15 / 1500.0, rho[1], 1e-15), "{stored:?}");
-        assert!(close(stored[1] * 1.66 / 1500.0, rho[2], 1e-15), "{stored:?}");
+        assert!(
+            close(stored[0] * 1.15 / 1500.0, rho[1], 1e-15),
+            "{stored:?}"
+        );
+        assert!(
+            close(stored[1] * 1.66 / 1500.0, rho[2], 1e-15),
+            "{stored:?}"
+        );
         for &(tl, pl, tv, pv) in &[
             (0.0, 0.0, 0.0, 0.0),
             (30.0, 10.0, 50.0, 250.0),

@@ -57,6 +57,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
         rotation: 0.4,
         specular: 0.8,
         coat: None,
+        haze: None,
         edge: None,
     };
     let truth = tabulate(&truth_model);
@@ -111,6 +112,7 @@ fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
             rotation: 0.0,
             specular: 1.0,
             coat: None,
+            haze: None,
             edge: None,
         };
         let truth = tabulate(&truth_model);
@@ -150,6 +152,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
             f0: [0.04; 3],
             alpha: 0.04,
         }),
+        haze: None,
         edge: None,
     };
     let truth = tabulate(&coated);
@@ -176,6 +179,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
 
     let plain = LambertMicrofacet {
         coat: None,
+        haze: None,
         edge: None,
         ..coated
     };
@@ -316,6 +320,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             beckmann_margin: None,
             coat_margin: None,
             edge_margin: None,
+            haze_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

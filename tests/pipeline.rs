@@ -184,12 +184,14 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
             margin_nats,
             beckmann_margin,
             coat_margin,
+            haze_margin,
             ..
         } => PriorMean::Fitted {
             margin_nats,
             beckmann_margin,
             coat_margin,
             edge_margin: None,
+            haze_margin,
         },
         PriorMean::Database => PriorMean::Database,
     };

@@ -343,6 +343,7 @@ fn a_fitted_reference_moves_the_gpu_evaluation_as_it_moves_the_engine() {
         alpha_y: 0.2,
         rotation: 0.4,
         coat: None,
+        haze: None,
         edge: None,
     };
     let reference = std::sync::Arc::new(FittedReference::new(basis.clone(), model));

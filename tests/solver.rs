@@ -486,6 +486,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         rotation: 0.0,
         specular: 1.0,
         coat: None,
+        haze: None,
         edge: None,
     };
     let truth = burnish::materials::tabulate(&truth_brdf);
@@ -521,6 +522,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         beckmann_margin: None,
         coat_margin: None,
         edge_margin: None,
+        haze_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
     fitted.apply_all(&changes);

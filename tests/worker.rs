@@ -426,6 +426,7 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
         beckmann_margin: None,
         coat_margin: None,
         edge_margin: None,
+        haze_margin: None,
     };
     let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
     worker.send(Command::SetPriorMean(always));

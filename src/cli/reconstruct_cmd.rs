@@ -102,9 +102,12 @@ pub struct ReconstructArgs {
     /// +beckmann (a Beckmann lobe where it fits both the paint and its bright bins better)
     /// or +beckmann:R (R times better), +coat or +coat:R (a clear coat over the lobe where it
     /// fits better by the factor R; not the default: on the calibration's single-lobe
-    /// materials it fitted a coat that extrapolated worse), and +edge or +edge:R (a metal's
+    /// materials it fitted a coat that extrapolated worse), +edge or +edge:R (a metal's
     /// exact Fresnel with an edge tint per channel instead of Schlick's, tried where the fit
-    /// has no more diffuse than specular, kept where it fits better by the factor R). The
+    /// has no more diffuse than specular, kept where it fits better by the factor R), and
+    /// +haze or +haze:R (a metal's lobe split into a sharp peak and a broad glow of one
+    /// Fresnel, tried where the fit has almost no diffuse, kept where it fits better by the
+    /// factor R; not the default yet: it lets some metals' error grow with added views). The
     /// default, fitted:3+beckmann+edge:1.5, is what `burnish calibrate` chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,

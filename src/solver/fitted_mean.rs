@@ -157,11 +157,13 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             beckmann_margin,
             coat_margin,
             edge_margin,
+            haze_margin,
             ..
         } => FitOptions {
             beckmann_margin,
             coat_margin,
             edge_margin,
+            haze_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -190,6 +192,7 @@ mod tests {
             alpha_y: 0.2,
             rotation: 0.0,
             coat: None,
+            haze: None,
             edge: None,
         }
     }
@@ -296,11 +299,13 @@ mod tests {
             beckmann_margin: Some(1.5),
             coat_margin: Some(2.0),
             edge_margin: Some(1.2),
+            haze_margin: Some(1.3),
         };
         let options = fit_options(mean);
         assert_eq!(options.beckmann_margin, Some(1.5));
         assert_eq!(options.coat_margin, Some(2.0));
         assert_eq!(options.edge_margin, Some(1.2));
+        assert_eq!(options.haze_margin, Some(1.3));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

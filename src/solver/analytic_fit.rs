@@ -408,7 +408,8 @@ pub struct FitOptions {
     /// Also fit a haze (a share of the lobe's reflectance over a second, isotropic lobe with
     /// the same Fresnel) beside the chosen lobe, and keep it when its RMS log residual and its
     /// brightness-weighted one are both below one lobe's divided by this factor; `None`: one
-    /// lobe. Tried only from fits of a metal (no more diffuse than a tenth of F0) without a coat.
+    /// lobe. Tried only where the chosen fit is a metal's (no more diffuse than a tenth of
+    /// F0) without a coat.
     pub haze_margin: Option<f64>,
 }
 
@@ -532,19 +533,20 @@ pub fn fit_lambert_microfacet_bounded(
             best = two;
         }
     }
-    if let Some(margin) = options.haze_margin.filter(|_| !best.shape.two_lobes) {
+    if let Some(margin) = options
+        .haze_margin
+        .filter(|_| !best.shape.two_lobes && metal_like(&best.model()))
+    {
         // One lobe fitted to a sharp peak over a broad glow settles between them: too broad
         // for the peak, too narrow for the glow, and where the peak is clipped (8-bit paint)
         // the glow alone decides it. Two lobes of one Fresnel hold both. Each one-lobe fit
         // (GGX's, and Beckmann's where it was fitted) starts a haze of either distribution:
         // a Beckmann fit to a clipped peak has settled on the glow and cannot find the peak
-        // on its own. Only a metal's fit may take one: where a very rough lobe stands in for
-        // a plastic's diffuse, a haze turns its mirror highlight into a metal's.
+        // on its own. Only a metal may take one (its chosen fit decides): where a very rough
+        // lobe stands in for a plastic's diffuse, a haze turns its mirror highlight into a
+        // metal's.
         let mut hazy: Option<ShapeFit> = None;
         for first in std::iter::once(&ggx).chain(beckmann.as_ref()) {
-            if !metal_like(&first.model()) {
-                continue;
-            }
             let starts = haze_starts(&first.theta);
             for distribution in [Distribution::Ggx, Distribution::Beckmann] {
                 let shape = Shape {
@@ -1188,7 +1190,6 @@ mod tests {
     #[test]
     fn an_edge_tint_holds_a_metals_peak_from_two_clipped_views() {
         use crate::materials::models::Microfacet;
-        use crate::metrics::evaluate;
         let gold = Microfacet::isotropic(
             Distribution::Ggx,
             0.05,
@@ -1208,8 +1209,7 @@ mod tests {
                 edge_margin,
                 ..FitOptions::default()
             };
-            let model = fit_lambert_microfacet_bounded(&bins, &options).model;
-            (model, evaluate(&truth, &crate::materials::tabulate(&model)))
+            fit_and_score(&bins, &options, &truth)
         };
         let (schlick, schlick_error) = fit(None);
         let (tinted, tinted_error) = fit(Some(1.2));
@@ -1221,6 +1221,17 @@ mod tests {
         // Measured: Schlick 0.087, the edge tint 0.0000 (gold's own η + iκ and α to 1e-12).
         assert!(tinted_error.relative_rmse < 0.005, "{tinted_error:?}");
         assert!(schlick_error.relative_rmse > 0.05, "{schlick_error:?}");
+    }
+
+    /// The fit of `bins` under `options`, and how far its table is from `truth`.
+    fn fit_and_score(
+        bins: &[(PairIndex, [f64; 3], Bounds)],
+        options: &FitOptions,
+        truth: &crate::table::SymTable,
+    ) -> (LambertMicrofacet, crate::metrics::Evaluation) {
+        let model = fit_lambert_microfacet_bounded(bins, options).model;
+        let error = crate::metrics::evaluate(truth, &crate::materials::tabulate(&model));
+        (model, error)
     }
 
     /// What 8-bit paint of `brdf` gives on `pairs`: a pixel lit by irradiance π holds
@@ -1259,7 +1270,6 @@ mod tests {
     #[test]
     fn a_haze_holds_a_clipped_peak_over_a_glow() {
         use crate::materials::models::Mixture;
-        use crate::metrics::evaluate;
         let silver = Fresnel::Conductor {
             eta: [0.155, 0.117, 0.138],
             k: [4.83, 3.12, 2.15],
@@ -1284,8 +1294,7 @@ mod tests {
                 haze_margin,
                 ..FitOptions::default()
             };
-            let model = fit_lambert_microfacet_bounded(&bins, &options).model;
-            (model, evaluate(&truth, &crate::materials::tabulate(&model)))
+            fit_and_score(&bins, &options, &truth)
         };
         let (one, one_error) = fit(None);
         let (hazy, hazy_error) = fit(Some(1.5));

@@ -212,12 +212,12 @@ impl PriorMean {
     /// 8-bit, two sets of three lights) every mean and median falls: one HDR view 0.260 /
     /// 0.107 → 0.239 / 0.062, one 8-bit view 0.378 / 0.204 → 0.283 / 0.107, three 8-bit
     /// views 0.325 → 0.217; steps where an added view hurts, 15 → 16 of 120. What keeps it
-    /// out of the default is the promise that a view never
-    /// hurts: a GTR metal, fitted far better from one view (0.229 → 0.092 on the pipeline
-    /// tests), then grows with each view (0.092 → 0.103 → 0.119, +29% from one view to three)
-    /// where one lobe fell (0.229 → 0.203 → 0.164); the two-lobe gold goes 0.007 → 0.018 from
-    /// one HDR view to two (an edge tint that one more θ_d pulls into a dielectric's in red,
-    /// where F0 near 1 hardly tells them apart).
+    /// out of the default is the promise that a view never hurts: a GTR metal, fitted far
+    /// better from one view (0.229 → 0.092 on the pipeline tests), then grows with each view
+    /// (0.092 → 0.103 → 0.119, +29% from one view to three) where one lobe fell (0.229 →
+    /// 0.202 → 0.168); the two-lobe gold goes 0.007 → 0.018 from one HDR view to two (one
+    /// lobe: 0.329 → 0.291): one more θ_d pulls its edge tint in red into a dielectric's,
+    /// which F0 near 1 hardly tells from a conductor's.
     pub const FITTED: Self = Self::Fitted {
         margin_nats: EVIDENCE_MARGIN_NATS,
         beckmann_margin: Some(1.0),

@@ -46,7 +46,8 @@ pub struct LambertMicrofacet {
     /// of the same distribution with its own F0 and roughness.
     pub coat: Option<Coat>,
     /// A haze beside the first lobe ([`FitOptions::haze_margin`]): a share of the lobe's
-    /// reflectance spread over a second, isotropic lobe of the same distribution and Fresnel.
+    /// reflectance spread over a second, isotropic lobe of its own distribution with the same
+    /// Fresnel.
     pub haze: Option<Haze>,
     /// The lobe's edge tint per channel ([`FitOptions::edge_margin`]): its Fresnel is then a
     /// conductor's, exact, with reflectance `f0` at normal incidence
@@ -83,8 +84,9 @@ pub struct Coat {
 pub struct Haze {
     /// The glow's own distribution: a sharp GGX peak often sits on a Gaussian (Beckmann) glow.
     pub distribution: Distribution,
-    /// In [0, 1].
+    /// The second lobe's share of the first's reflectance, in [0, 1].
     pub share: f64,
+    /// The second lobe's isotropic roughness.
     pub alpha: f64,
 }
 

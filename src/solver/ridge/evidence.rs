@@ -247,3 +247,227 @@ impl Solver {
         Some(t.exp())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::Observed;
+    use super::*;
+    use crate::basis::build::small_test_basis;
+    use crate::solver::bands::{BandWeights, pair_bands};
+    use crate::solver::prior::PriorMean;
+    use crate::solver::reconstruction::Reconstruction;
+    use crate::solver::sparse::{BinChange, EXACT};
+    use crate::table::PairIndex;
+
+    /// The calibrated prior centred on the database's mean: not the default model, so that a
+    /// model made up rather than kept is told apart.
+    const MODEL: PriorModel = PriorModel {
+        mean: PriorMean::Database,
+        ..PriorModel::CALIBRATED
+    };
+
+    /// One coefficient set for every θ_d: a material whose knots move together exactly.
+    fn agreeing() -> Reconstruction {
+        let basis = small_test_basis();
+        let x: Vec<[f64; 3]> = basis
+            .variances()
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let s = v.sqrt() * if i % 2 == 0 { 0.8 } else { -0.6 };
+                [s, 0.7 * s, 0.4 * s]
+            })
+            .collect();
+        Reconstruction::new(basis, &x)
+    }
+
+    /// A solver of `model` under `regularization` with `truth` painted on `pairs`.
+    fn painted(
+        model: PriorModel,
+        regularization: Regularization,
+        truth: &Reconstruction,
+        pairs: &[PairIndex],
+    ) -> Solver {
+        let mut solver = Solver::with_model(small_test_basis(), regularization, model);
+        for &pair in pairs {
+            let rho = truth.eval_pair(pair).map(f64::from);
+            solver.apply(&BinChange::observed(pair, rho, EXACT));
+        }
+        solver
+    }
+
+    /// Bins spread over every θ_d.
+    fn spread() -> Vec<PairIndex> {
+        PairIndex::all().step_by(997).collect()
+    }
+
+    /// Bins between the knots at 22.5° and 45° only, as one view's slice would be.
+    fn one_span() -> Vec<PairIndex> {
+        let bands = pair_bands();
+        PairIndex::all()
+            .step_by(97)
+            .filter(|p| bands[p.index()].lower == 1)
+            .collect()
+    }
+
+    /// (configured ρ's evidence, the tighter candidate's) at `alpha`.
+    fn scores(solver: &Solver, alpha: f64) -> (f64, f64) {
+        let scored = solver.band_correlation_evidence(alpha);
+        let rhos: Vec<f64> = scored.iter().map(|s| s.0).collect();
+        assert_eq!(
+            rhos,
+            [MODEL.band_correlation, EVIDENCE_BAND_CORRELATIONS[0]]
+        );
+        (scored[0].1, scored[1].1)
+    }
+
+    #[test]
+    fn bins_within_one_knot_span_keep_the_configured_model() {
+        let solver = painted(MODEL, Regularization::Auto, &agreeing(), &one_span());
+        assert!(solver.observed_bins() > 100);
+        assert!(!solver.spans_knots());
+        // The evidence alone would take the tighter ρ: the span, not the score, keeps it out.
+        let (configured, tighter) = scores(&solver, DEFAULT_ALPHA);
+        assert!(tighter - configured > EVIDENCE_MARGIN_NATS);
+        assert_eq!(solver.effective_model(), MODEL);
+        assert_eq!(solver.solve().band_correlation, MODEL.band_correlation);
+    }
+
+    #[test]
+    fn agreeing_bins_over_several_knots_take_the_tighter_correlation() {
+        let tighter = PriorModel {
+            band_correlation: EVIDENCE_BAND_CORRELATIONS[0],
+            ..MODEL
+        };
+        for regularization in [Regularization::Auto, Regularization::Prior { alpha: 3.0 }] {
+            let solver = painted(MODEL, regularization, &agreeing(), &spread());
+            assert!(solver.spans_knots());
+            assert_eq!(solver.effective_model(), tighter, "{regularization}");
+            assert_eq!(solver.solve().band_correlation, tighter.band_correlation);
+        }
+    }
+
+    /// The same bins keep the configured model whenever the evidence may not choose: it is
+    /// switched off, there is one set, α is fitted (GCV) or there is no prior (ridge), or no
+    /// candidate is tighter than the configured ρ.
+    #[test]
+    fn the_configured_model_stays_where_the_evidence_may_not_choose() {
+        let (truth, pairs) = (agreeing(), spread());
+        let keeps = |model: PriorModel, regularization: Regularization| {
+            let solver = painted(model, regularization, &truth, &pairs);
+            assert_eq!(
+                solver.effective_model(),
+                model,
+                "{model:?}, {regularization}"
+            );
+        };
+        let off = PriorModel {
+            correlation_by_evidence: false,
+            ..MODEL
+        };
+        keeps(off, Regularization::Auto);
+        let global = PriorModel {
+            correlation_by_evidence: true,
+            ..PriorModel::GLOBAL
+        };
+        keeps(global, Regularization::Auto);
+        keeps(MODEL, Regularization::Gcv);
+        keeps(MODEL, Regularization::Ridge { lambda: 1.0 });
+        let tightest = PriorModel {
+            band_correlation: 0.995,
+            ..MODEL
+        };
+        keeps(tightest, Regularization::Auto);
+    }
+
+    /// Over α from little to much noise, the tighter ρ's gain shrinks through the margin: the
+    /// solve takes the candidate exactly when its evidence beats the configured ρ's by more
+    /// than the margin, and keeps the configured ρ when it is better by less.
+    #[test]
+    fn the_tighter_correlation_is_taken_only_past_the_margin() {
+        let (truth, pairs) = (agreeing(), spread());
+        let (mut taken, mut short) = (0, 0);
+        for step in 0..24 {
+            let alpha = 10f64.powf(-1.0 + 0.25 * step as f64);
+            let solver = painted(MODEL, Regularization::Prior { alpha }, &truth, &pairs);
+            let (configured, tighter) = scores(&solver, alpha);
+            let gain = tighter - configured;
+            let expected = if gain > EVIDENCE_MARGIN_NATS {
+                taken += 1;
+                EVIDENCE_BAND_CORRELATIONS[0]
+            } else {
+                short += usize::from(gain > 0.0);
+                MODEL.band_correlation
+            };
+            let model = solver.effective_model();
+            assert_eq!(model.band_correlation, expected, "α {alpha}, gain {gain}");
+        }
+        assert!(
+            taken > 0 && short > 0,
+            "{taken} taken, {short} short of the margin"
+        );
+    }
+
+    /// A solver whose painted bins hold `weights` at knots and blends of knots (only what
+    /// `spans_knots` reads: the normal equations are left empty).
+    fn with_knot_weights(weights: &[(BandWeights, f64)]) -> Solver {
+        let mut solver = Solver::with_model(small_test_basis(), Regularization::Auto, MODEL);
+        for (i, &(band, weight)) in weights.iter().enumerate() {
+            let obs = Observed {
+                row: Box::new([]),
+                band,
+                y: [0.0; 3],
+                rho: [0.0; 3],
+                brightness: 0.0,
+                weight,
+                bounds: EXACT,
+            };
+            solver.observed.insert(PairIndex::from_index(i), obs);
+        }
+        solver
+    }
+
+    /// Weight `w` at knot `j`.
+    fn at(j: u8, w: f64) -> (BandWeights, f64) {
+        let band = match j {
+            4 => BandWeights {
+                lower: 3,
+                frac: 1.0,
+            },
+            j => BandWeights {
+                lower: j,
+                frac: 0.0,
+            },
+        };
+        (band, w)
+    }
+
+    /// Weight `w` halfway between knots `j` and `j + 1`.
+    fn between(j: u8, w: f64) -> (BandWeights, f64) {
+        (
+            BandWeights {
+                lower: j,
+                frac: 0.5,
+            },
+            w,
+        )
+    }
+
+    #[test]
+    fn spans_knots_needs_three_knots_with_five_percent_of_the_weight_each() {
+        let spans = |weights: &[(BandWeights, f64)]| with_knot_weights(weights).spans_knots();
+        assert!(!spans(&[]));
+        assert!(spans(&[at(0, 1.0), at(2, 1.0), at(4, 1.0)]));
+        assert!(spans(&[at(0, 1.0), at(1, 1.0), at(2, 1.0), at(3, 1.0)]));
+        assert!(!spans(&[at(1, 5.0), at(3, 5.0)]));
+        // One view's slice blends two knots, however much is painted.
+        assert!(!spans(&[between(1, 10.0), between(1, 30.0)]));
+        assert!(spans(&[between(0, 1.0), between(2, 1.0)]));
+        // Exactly 5% counts; 4.9% does not.
+        assert!(spans(&[at(0, 1.0), at(2, 9.5), at(4, 9.5)]));
+        assert!(!spans(&[at(0, 0.98), at(2, 9.51), at(4, 9.51)]));
+        // Half a bin's weight is what reaches each knot it blends: 2 × 0.5 of 20 is 5%.
+        assert!(spans(&[between(0, 2.0), at(1, 8.0), at(2, 10.0)]));
+        assert!(!spans(&[between(0, 1.9), at(1, 8.1), at(2, 10.0)]));
+    }
+}

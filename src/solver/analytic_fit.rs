@@ -340,8 +340,36 @@ fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
             share: logistic(theta[P_ONE]),
             alpha: alpha_of(theta[COAT_SHAPE]),
         }),
-        edge: edge.then(|| [0, 1, 2].map(|c| logistic(theta[EDGE + c]))),
+        edge: edge.then(|| {
+            [0, 1, 2].map(|c| {
+                let least = least_edge_tint(logistic(theta[3 + c]));
+                least + (1.0 - least) * logistic(theta[EDGE + c])
+            })
+        }),
     }
+}
+
+/// The highest index of refraction an edge tint may name. No material painted as a metal or
+/// a dielectric has η much above germanium's (about 5.5 in visible light), yet Gulbrandsen's
+/// dielectric end reaches any F0 with η alone: F0 = 0.97 there is η ≈ 117 and κ = 0. Where F0
+/// is that high, views at a few θ_d hardly tell a conductor's Fresnel from such a dielectric's,
+/// and a free tint wandered from one end to the other as views were added.
+const EDGE_ETA_MAX: f64 = 6.0;
+
+/// The least edge tint whose conductor ([`conductor_from_edge_tint`]) has η at most
+/// [`EDGE_ETA_MAX`] at normal-incidence reflectance `f0`: 0 for a dielectric's F0.
+fn least_edge_tint(f0: f64) -> f64 {
+    let r = f0.clamp(0.0, 0.9999);
+    let root = r.sqrt();
+    let dielectric = (1.0 + root) / (1.0 - root);
+    let metal = (1.0 - r) / (1.0 + r);
+    ((dielectric - EDGE_ETA_MAX) / (dielectric - metal)).max(0.0)
+}
+
+/// The parameter of edge tint `g` at F0 `f0`, the inverse of [`model_of`]'s mapping.
+fn edge_param(f0: f64, g: f64) -> f64 {
+    let least = least_edge_tint(f0);
+    logit((g - least) / (1.0 - least))
 }
 
 fn params_of(model: &LambertMicrofacet) -> Params {
@@ -365,7 +393,7 @@ fn params_of(model: &LambertMicrofacet) -> Params {
     }
     if let Some(edge) = model.edge {
         for c in 0..3 {
-            theta[EDGE + c] = logit(edge[c]);
+            theta[EDGE + c] = edge_param(model.f0[c], edge[c]);
         }
     }
     theta
@@ -672,10 +700,14 @@ fn edge_start(theta: &Params, shape: Shape) -> Params {
                 })
                 .sum()
         };
-        // Inside (0, 1): a saturated logistic would not move.
+        // Inside the tint's range: a saturated logistic would not move.
+        let least = least_edge_tint(f0);
         let best = (1..40)
             .map(|i| 0.025 * i as f64)
-            .min_by(|&a, &b| distance(a).total_cmp(&distance(b)))
+            .min_by(|&a, &b| {
+                let tint = |u: f64| least + (1.0 - least) * u;
+                distance(tint(a)).total_cmp(&distance(tint(b)))
+            })
             .unwrap_or(0.5);
         start[EDGE + c] = logit(best);
     }
@@ -1118,7 +1150,8 @@ mod tests {
         let edge = extreme.edge.expect("an edge tint");
         assert!(edge.iter().all(|g| (0.0..=1.0).contains(g)));
         let tinted = LambertMicrofacet {
-            edge: Some([0.1, 0.5, 0.9]),
+            // Blue's F0 (0.95) allows no tint below about 0.92 (EDGE_ETA_MAX).
+            edge: Some([0.1, 0.5, 0.95]),
             ..MIXED
         };
         let shape = Shape {
@@ -1128,6 +1161,48 @@ mod tests {
         let back = model_of(&params_of(&tinted), shape).edge.unwrap();
         for c in 0..3 {
             assert!((back[c] - tinted.edge.unwrap()[c]).abs() < 1e-9);
+        }
+        // At a metal's F0 the tint stops short of the dielectric end, where η would pass
+        // EDGE_ETA_MAX, and still round-trips above it.
+        for f0 in [0.5, 0.9, 0.97, 0.999] {
+            let lowest = model_of(
+                &[
+                    0.0,
+                    0.0,
+                    0.0,
+                    logit(f0),
+                    logit(f0),
+                    logit(f0),
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    -1e3,
+                    0.0,
+                    1e3,
+                ],
+                shape,
+            );
+            let (eta, _) = conductor_from_edge_tint(lowest.f0[0], lowest.edge.unwrap()[0]);
+            assert!(
+                eta <= EDGE_ETA_MAX + 1e-9 && eta > 0.9 * EDGE_ETA_MAX,
+                "{f0}: η {eta}"
+            );
+            assert!(lowest.edge.unwrap()[2] > 0.999);
+            let metal = LambertMicrofacet {
+                f0: [f0; 3],
+                edge: Some([0.1, 0.5, 0.9].map(|u| {
+                    let least = least_edge_tint(f0);
+                    least + (1.0 - least) * u
+                })),
+                ..tinted
+            };
+            let back = model_of(&params_of(&metal), shape).edge.unwrap();
+            for c in 0..3 {
+                assert!((back[c] - metal.edge.unwrap()[c]).abs() < 1e-9, "{f0} {c}");
+            }
         }
         let haze = Haze {
             distribution: Distribution::Beckmann,
@@ -1309,6 +1384,50 @@ mod tests {
         // to 2%; what is left is Schlick's Fresnel for silver's).
         assert!(hazy_error.relative_rmse < 0.22, "{hazy_error:?}");
         assert!(one_error.relative_rmse > 0.8, "{one_error:?}");
+    }
+
+    /// A gold painted at two θ_d: a sharp peak over a haze, red's F0 0.97. Near F0 = 1 a
+    /// conductor's Fresnel and a dielectric's of the same F0 differ by little, and with the
+    /// dielectric end free (η ≈ 117, κ = 0) the second θ_d pulled red's tint there: relative
+    /// RMSE 0.007 from one view became 0.018 from two. With η bounded the fit finds the gold.
+    #[test]
+    fn a_gold_seen_at_two_half_angles_keeps_a_metals_edge() {
+        use crate::materials::models::Mixture;
+        let gold = Fresnel::Conductor {
+            eta: [0.143, 0.374, 1.442],
+            k: [3.983, 2.385, 1.603],
+        };
+        let polished = Mixture {
+            parts: vec![
+                (
+                    0.7,
+                    Box::new(Microfacet::isotropic(Distribution::Ggx, 0.05, gold)),
+                ),
+                (
+                    0.3,
+                    Box::new(Microfacet::isotropic(Distribution::Beckmann, 0.4, gold)),
+                ),
+            ],
+        };
+        let bins: Vec<_> = pairs_at_half_differences(7, &[14.0..16.0, 33.0..37.0])
+            .into_iter()
+            .map(|(pair, l, v)| (pair, polished.eval(l, v), EXACT))
+            .collect();
+        let options = FitOptions {
+            beckmann_margin: Some(1.0),
+            edge_margin: Some(1.5),
+            haze_margin: Some(1.5),
+            ..FitOptions::default()
+        };
+        let (fit, error) = fit_and_score(&bins, &options, &crate::materials::tabulate(&polished));
+        println!("{fit:?}: {:.5}", error.relative_rmse);
+        let edge = fit.edge.expect("an edge tint");
+        let (eta, k) = conductor_from_edge_tint(fit.f0[0], edge[0]);
+        assert!(
+            (eta - 0.143).abs() < 0.05 && (k - 3.983).abs() < 0.2,
+            "red η {eta}, κ {k}"
+        );
+        assert!(error.relative_rmse < 0.005, "{error:?}");
     }
 
     /// Every `step`-th pair whose bin centres' half-difference angle θ_d (degrees) lies in

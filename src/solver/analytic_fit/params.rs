@@ -1,0 +1,180 @@
+//! The fit's unconstrained parameters: logistic albedo, F0, share and edge tint, logistic
+//! log-roughness, and which of them a lobe shape varies.
+
+use super::model::{Coat, Haze, LambertMicrofacet};
+use crate::materials::models::Distribution;
+
+/// Roughness bounds: below 0.01 a lobe is narrower than the 2° bins can show.
+pub(super) const ALPHA_MIN: f64 = 0.01;
+pub(super) const ALPHA_MAX: f64 = 1.5;
+/// Parameters of one lobe: three albedo logits, three F0 logits, two log-roughness logits,
+/// rotation, the specular weight's logit.
+pub(super) const P_ONE: usize = 10;
+/// With a second lobe: the logit of its grey F0 within the dielectric range and its
+/// log-roughness logit after those.
+pub(super) const P_COAT: usize = 12;
+/// With an edge tint: its three logits after those.
+pub(super) const EDGE: usize = P_COAT;
+pub(super) const P: usize = EDGE + 3;
+/// The parameters D·G of the first lobe depends on (its roughnesses and turn), and that of
+/// the second (its roughness).
+pub(super) const SHAPE: [usize; 3] = [6, 7, 8];
+pub(super) const COAT_SHAPE: usize = 11;
+/// The second lobe's F0 is a dielectric coat's, grey: indices of refraction 1.33 to 1.8.
+/// Why not free: with one light every painted bin has the same θ_d, so a free F0 trades the
+/// lobe's height for its Fresnel rise at will; a coat's F0 ties the lobe's height to its width,
+/// and a free second lobe fitted the shape of single-lobe materials (Ward, Blinn–Phong) by two
+/// GGX lobes that extrapolated worse (measured in `PriorMean::Fitted`'s notes).
+pub(super) const COAT_F0_MIN: f64 = 0.02;
+pub(super) const COAT_F0_MAX: f64 = 0.08;
+
+/// A parameter vector; the fit varies only the entries [`Shape::active`] lists.
+pub(super) type Params = [f64; P];
+
+/// What the fit varies beyond one lobe's ten parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Shape {
+    pub(super) distribution: Distribution,
+    /// A clear coat (a second lobe).
+    pub(super) two_lobes: bool,
+    /// A haze of this distribution (a second lobe sharing the first's Fresnel); never with a
+    /// coat.
+    pub(super) haze: Option<Distribution>,
+    /// An edge tint per channel (a conductor's exact Fresnel instead of Schlick's).
+    pub(super) edge: bool,
+}
+
+impl Shape {
+    pub(super) fn one_lobe(distribution: Distribution) -> Self {
+        Self {
+            distribution,
+            two_lobes: false,
+            haze: None,
+            edge: false,
+        }
+    }
+
+    /// The indices of `Params` the fit varies, in order, and how many there are.
+    pub(super) fn active(self) -> ([usize; P], usize) {
+        let mut indices = [0; P];
+        let mut n = 0;
+        let mut take = |range: std::ops::Range<usize>| {
+            for i in range {
+                indices[n] = i;
+                n += 1;
+            }
+        };
+        take(0..P_ONE);
+        if self.two_lobes || self.haze.is_some() {
+            take(P_ONE..P_COAT);
+        }
+        if self.edge {
+            take(EDGE..P);
+        }
+        (indices, n)
+    }
+}
+
+pub(super) fn logistic(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+pub(super) fn logit(p: f64) -> f64 {
+    let p = p.clamp(1e-6, 1.0 - 1e-6);
+    (p / (1.0 - p)).ln()
+}
+
+pub(super) fn alpha_of(s: f64) -> f64 {
+    // exp(ln) can round a hair past either end; the bounds are the model's.
+    (ALPHA_MIN.ln() + (ALPHA_MAX / ALPHA_MIN).ln() * logistic(s))
+        .exp()
+        .clamp(ALPHA_MIN, ALPHA_MAX)
+}
+
+pub(super) fn alpha_param(alpha: f64) -> f64 {
+    logit((alpha.ln() - ALPHA_MIN.ln()) / (ALPHA_MAX / ALPHA_MIN).ln())
+}
+
+pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
+    let Shape {
+        distribution,
+        two_lobes,
+        haze,
+        edge,
+    } = shape;
+    LambertMicrofacet {
+        albedo: [0, 1, 2].map(|c| logistic(theta[c])),
+        f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
+        distribution,
+        alpha_x: alpha_of(theta[6]),
+        alpha_y: alpha_of(theta[7]),
+        // A lobe turned by π is the same lobe: the reported angle stays in [0, π).
+        rotation: theta[8].rem_euclid(std::f64::consts::PI),
+        specular: logistic(theta[9]),
+        coat: two_lobes.then(|| Coat {
+            f0: [COAT_F0_MIN + (COAT_F0_MAX - COAT_F0_MIN) * logistic(theta[P_ONE]); 3],
+            alpha: alpha_of(theta[COAT_SHAPE]),
+        }),
+        haze: haze.filter(|_| !two_lobes).map(|distribution| Haze {
+            distribution,
+            share: logistic(theta[P_ONE]),
+            alpha: alpha_of(theta[COAT_SHAPE]),
+        }),
+        edge: edge.then(|| {
+            [0, 1, 2].map(|c| {
+                let least = least_edge_tint(logistic(theta[3 + c]));
+                least + (1.0 - least) * logistic(theta[EDGE + c])
+            })
+        }),
+    }
+}
+
+/// The highest index of refraction an edge tint may name. No material painted as a metal or
+/// a dielectric has η much above germanium's (about 5.5 in visible light), yet Gulbrandsen's
+/// dielectric end reaches any F0 with η alone: F0 = 0.97 there is η ≈ 117 and κ = 0. Where F0
+/// is that high, views at a few θ_d hardly tell a conductor's Fresnel from such a dielectric's,
+/// and a free tint wandered from one end to the other as views were added.
+pub(super) const EDGE_ETA_MAX: f64 = 6.0;
+
+/// The least edge tint whose conductor ([`conductor_from_edge_tint`]) has η at most
+/// [`EDGE_ETA_MAX`] at normal-incidence reflectance `f0`: 0 for a dielectric's F0.
+pub(super) fn least_edge_tint(f0: f64) -> f64 {
+    let r = f0.clamp(0.0, 0.9999);
+    let root = r.sqrt();
+    let dielectric = (1.0 + root) / (1.0 - root);
+    let metal = (1.0 - r) / (1.0 + r);
+    ((dielectric - EDGE_ETA_MAX) / (dielectric - metal)).max(0.0)
+}
+
+/// The parameter of edge tint `g` at F0 `f0`, the inverse of [`model_of`]'s mapping.
+pub(super) fn edge_param(f0: f64, g: f64) -> f64 {
+    let least = least_edge_tint(f0);
+    logit((g - least) / (1.0 - least))
+}
+
+pub(super) fn params_of(model: &LambertMicrofacet) -> Params {
+    let mut theta = [0.0; P];
+    for c in 0..3 {
+        theta[c] = logit(model.albedo[c]);
+        theta[3 + c] = logit(model.f0[c]);
+    }
+    theta[6] = alpha_param(model.alpha_x);
+    theta[7] = alpha_param(model.alpha_y);
+    theta[8] = model.rotation;
+    theta[9] = logit(model.specular);
+    if let Some(second) = model.coat {
+        let grey = (second.f0[0] + second.f0[1] + second.f0[2]) / 3.0;
+        theta[P_ONE] = logit((grey - COAT_F0_MIN) / (COAT_F0_MAX - COAT_F0_MIN));
+        theta[COAT_SHAPE] = alpha_param(second.alpha);
+    }
+    if let Some(haze) = model.haze {
+        theta[P_ONE] = logit(haze.share);
+        theta[COAT_SHAPE] = alpha_param(haze.alpha);
+    }
+    if let Some(edge) = model.edge {
+        for c in 0..3 {
+            theta[EDGE + c] = edge_param(model.f0[c], edge[c]);
+        }
+    }
+    theta
+}

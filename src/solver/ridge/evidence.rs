@@ -256,7 +256,7 @@ mod tests {
     use crate::solver::bands::{BandWeights, pair_bands};
     use crate::solver::prior::PriorMean;
     use crate::solver::reconstruction::Reconstruction;
-    use crate::solver::sparse::{BinChange, EXACT};
+    use crate::solver::sparse::{BinChange, Bound, EXACT};
     use crate::table::PairIndex;
 
     /// The calibrated prior centred on the database's mean: not the default model, so that a
@@ -469,5 +469,265 @@ mod tests {
         // Half a bin's weight is what reaches each knot it blends: 2 × 0.5 of 20 is 5%.
         assert!(spans(&[between(0, 2.0), at(1, 8.0), at(2, 10.0)]));
         assert!(!spans(&[between(0, 1.9), at(1, 8.1), at(2, 10.0)]));
+    }
+
+    /// ψ_p, the bin's row of Ψ (D entries): the basis row u_p on the sets its θ_d blends.
+    fn design_row(solver: &Solver, obs: &Observed) -> Vec<f64> {
+        let k = solver.basis.components();
+        let mut psi = vec![0.0; solver.dimension()];
+        for (j, phi) in obs.band.pairs() {
+            if phi != 0.0 {
+                for (i, u) in obs.row.iter().enumerate() {
+                    psi[j * k + i] += phi * u;
+                }
+            }
+        }
+        psi
+    }
+
+    /// log p of the painted bins (as the normal equations hold them), written out bin by bin:
+    /// each channel's y ~ N(Ψ(1 ⊗ x₀), S) with S = αW⁻¹ + ΨΣΨᵀ, Σ the prior's covariance
+    /// (σ_i² C(ρ)_ab between component i of sets a and b, none between components).
+    fn marginal_likelihood(solver: &Solver, alpha: f64, rho: f64) -> f64 {
+        let model = PriorModel {
+            band_correlation: rho,
+            ..solver.model
+        };
+        let (k, d) = (solver.basis.components(), solver.dimension());
+        let sigma = super::super::prior_scales(solver.basis.variances());
+        let bins: Vec<&Observed> = solver.observed.values().collect();
+        let psi: Vec<Vec<f64>> = bins.iter().map(|obs| design_row(solver, obs)).collect();
+        let n = bins.len();
+        let covariance = Mat::<f64>::from_fn(d, d, |a, b| {
+            if a % k == b % k {
+                sigma[a % k].powi(2) * model.band_correlation_between(a / k, b / k)
+            } else {
+                0.0
+            }
+        });
+        let psi_mat = Mat::<f64>::from_fn(n, d, |p, a| psi[p][a]);
+        let mut s = &psi_mat * &covariance * psi_mat.transpose();
+        for (p, obs) in bins.iter().enumerate() {
+            s[(p, p)] += alpha / obs.weight;
+        }
+        let llt = s.llt(Side::Lower).expect("S is positive definite");
+        let log_det: f64 = (0..n).map(|p| 2.0 * llt.L()[(p, p)].ln()).sum();
+        let mut minus_twice = 3.0 * (log_det + n as f64 * (2.0 * std::f64::consts::PI).ln());
+        for c in 0..3 {
+            let e = Mat::<f64>::from_fn(n, 1, |p, _| {
+                let prior: f64 = solver
+                    .prior_mean()
+                    .map_or(0.0, |m| (0..d).map(|a| psi[p][a] * m[a % k][c]).sum());
+                bins[p].y[c] - prior
+            });
+            let z = llt.solve(&e);
+            minus_twice += (0..n).map(|p| e[(p, 0)] * z[(p, 0)]).sum::<f64>();
+        }
+        -0.5 * minus_twice
+    }
+
+    /// What the evidence leaves out of log p, alike for every ρ: the noise's normalisation
+    /// (n log 2πα − log det W), D log α and the σ_k's part of log det P₀.
+    fn terms_shared_by_every_rho(solver: &Solver, alpha: f64) -> f64 {
+        let n = solver.observed.len() as f64;
+        let d = solver.dimension() as f64;
+        let sigma = super::super::prior_scales(solver.basis.variances());
+        let log_sigma2: f64 = sigma.iter().map(|s| (s * s).ln()).sum();
+        let log_w: f64 = solver.observed.values().map(|o| o.weight.ln()).sum();
+        let two_pi = 2.0 * std::f64::consts::PI;
+        -1.5 * (solver.model.bands as f64 * log_sigma2 + n * two_pi.ln() + (n - d) * alpha.ln()
+            - log_w)
+    }
+
+    /// Bins at every 40th of the table: few enough to write S out, spread over θ_d.
+    fn sparse() -> Vec<PairIndex> {
+        PairIndex::all()
+            .step_by(PairIndex::all().len() / 40)
+            .collect()
+    }
+
+    #[test]
+    fn the_evidence_is_the_gaussian_marginal_likelihood_of_the_bins() {
+        let truth = agreeing();
+        let k = truth.basis().components();
+        let start: Vec<[f64; 3]> = small_test_basis().variances()[..k]
+            .iter()
+            .map(|v| [0.5 * v.sqrt(), -0.3 * v.sqrt(), 0.2 * v.sqrt()])
+            .collect();
+        let global = PriorModel::GLOBAL;
+        for (model, mean) in [(MODEL, None), (MODEL, Some(start.clone())), (global, None)] {
+            let mut solver = painted(model, Regularization::Auto, &truth, &sparse());
+            solver.set_prior_mean(mean.clone());
+            for alpha in [0.3, DEFAULT_ALPHA] {
+                let scored = solver.band_correlation_evidence(alpha);
+                assert_eq!(scored.len(), 1 + usize::from(model.bands > 1));
+                let shared = terms_shared_by_every_rho(&solver, alpha);
+                for (rho, evidence) in scored {
+                    let direct = marginal_likelihood(&solver, alpha, rho);
+                    assert!(
+                        (evidence + shared - direct).abs() <= 1e-9 * direct.abs(),
+                        "ρ {rho}, α {alpha}, mean {}: {} vs {direct}",
+                        mean.is_some(),
+                        evidence + shared
+                    );
+                }
+            }
+        }
+    }
+
+    /// Measured from the basis's mean, the evidence of the bins re-measured for a reference is
+    /// that of the normal equations: censored bins count at their bound, or at the prior's
+    /// prediction where that meets it, alike in both.
+    #[test]
+    fn evidence_from_the_basis_mean_is_the_evidence_of_the_normal_equations() {
+        let truth = agreeing();
+        let mut solver = Solver::with_model(small_test_basis(), Regularization::Auto, MODEL);
+        for (i, pair) in sparse().into_iter().enumerate() {
+            // Clipped paint on every third bin: a bound well below the truth on some, above
+            // it on others.
+            let (scale, bounds) = match i % 6 {
+                0 => (0.5, [Bound::AtLeast, Bound::Exact, Bound::AtLeast]),
+                3 => (2.0, [Bound::AtLeast, Bound::Exact, Bound::AtLeast]),
+                _ => (1.0, EXACT),
+            };
+            let rho = truth.eval_pair(pair).map(|v| scale * f64::from(v));
+            solver.apply(&BinChange::observed(pair, rho, bounds));
+        }
+        assert!(!solver.censored.is_empty());
+        let rho = MODEL.band_correlation;
+        let from = solver.evidence_from(DEFAULT_ALPHA, None, [rho]);
+        let of_normal = solver.band_correlation_evidence(DEFAULT_ALPHA);
+        assert_eq!(from.len(), 1);
+        assert!((from[0].1 - of_normal[0].1).abs() <= 1e-9 * from[0].1.abs());
+        let direct = marginal_likelihood(&solver, DEFAULT_ALPHA, rho);
+        let shared = terms_shared_by_every_rho(&solver, DEFAULT_ALPHA);
+        assert!((from[0].1 + shared - direct).abs() <= 1e-9 * direct.abs());
+    }
+
+    #[test]
+    fn the_evidence_scores_the_configured_correlation_and_the_candidates_above_it() {
+        let (truth, pairs) = (agreeing(), sparse());
+        for configured in [0.5, MODEL.band_correlation, 0.99, 0.995] {
+            let model = PriorModel {
+                band_correlation: configured,
+                ..MODEL
+            };
+            let solver = painted(model, Regularization::Auto, &truth, &pairs);
+            let rhos: Vec<f64> = solver
+                .band_correlation_evidence(DEFAULT_ALPHA)
+                .iter()
+                .map(|s| s.0)
+                .collect();
+            let mut expected = vec![configured];
+            expected.extend(
+                EVIDENCE_BAND_CORRELATIONS
+                    .iter()
+                    .filter(|&&c| c > configured),
+            );
+            assert_eq!(rhos, expected);
+        }
+    }
+
+    /// `truth` painted on `pairs` with a deterministic multiplicative noise of ±15% per channel.
+    fn noisy(model: PriorModel, truth: &Reconstruction, pairs: &[PairIndex]) -> Solver {
+        let mut solver = Solver::with_model(small_test_basis(), Regularization::Gcv, model);
+        for &pair in pairs {
+            let rho: [f64; 3] = std::array::from_fn(|c| {
+                let u = ((pair.index() * (3 + c)) as f64 * 0.618_034).fract() - 0.5;
+                f64::from(truth.eval_pair(pair)[c]) * (0.3 * u).exp()
+            });
+            solver.apply(&BinChange::observed(pair, rho, EXACT));
+        }
+        solver
+    }
+
+    /// The GCV score at α from the solution itself: n·RSS/(n − df)², n the painted bins'
+    /// weight three times over (R, G, B), RSS = Σ_p w_p‖y_p − ψ_pᵀX(α)‖² and df the trace of
+    /// the hat matrix, 3 tr((N + αP₀)⁻¹N).
+    fn gcv_score(solver: &Solver, p0: &Mat<f64>, alpha: f64) -> f64 {
+        let d = solver.dimension();
+        let n = Mat::<f64>::from_fn(d, d, |i, j| solver.normal[i * d + j]);
+        let r = Mat::<f64>::from_fn(d, 3, |i, c| solver.rhs[i][c]);
+        let m = &n + p0 * alpha;
+        let llt = m.llt(Side::Lower).expect("N + αP₀ is positive definite");
+        let x = llt.solve(&r);
+        let hat = llt.solve(&n);
+        let df = 3.0 * (0..d).map(|i| hat[(i, i)]).sum::<f64>();
+        let (mut rss, mut count) = (0.0, 0.0);
+        for obs in solver.observed.values() {
+            let psi = design_row(solver, obs);
+            for c in 0..3 {
+                let fit: f64 = (0..d).map(|a| psi[a] * x[(a, c)]).sum();
+                rss += obs.weight * (obs.y[c] - fit).powi(2);
+            }
+            count += 3.0 * obs.weight;
+        }
+        count * rss / (count - df).powi(2)
+    }
+
+    #[test]
+    fn gcv_alpha_minimises_the_gcv_score() {
+        let solver = noisy(MODEL, &agreeing(), &spread());
+        let p0 = solver.prior_precision_of(&MODEL);
+        let alpha = solver.gcv_alpha(&p0).expect("enough bins for GCV");
+        // Brute force: the best of 400 steps over the search range, then twice more around it.
+        let (mut lo, mut hi) = (ALPHA_MIN.ln(), ALPHA_MAX.ln());
+        let mut best = (f64::INFINITY, lo);
+        for _ in 0..3 {
+            let step = (hi - lo) / 400.0;
+            for i in 0..=400 {
+                let t = lo + step * i as f64;
+                let s = gcv_score(&solver, &p0, t.exp());
+                if s < best.0 {
+                    best = (s, t);
+                }
+            }
+            lo = (best.1 - step).max(ALPHA_MIN.ln());
+            hi = (best.1 + step).min(ALPHA_MAX.ln());
+        }
+        let brute = best.1.exp();
+        assert!(
+            ALPHA_MIN * 10.0 < brute && brute < ALPHA_MAX / 10.0,
+            "the minimum is inside the range: {brute}"
+        );
+        // The score is flat about its minimum (1e-10 higher 0.1% away): GCV's α must score as
+        // well as the scan's best, to rounding, and lie within 0.01% of it.
+        let excess = gcv_score(&solver, &p0, alpha) / best.0 - 1.0;
+        assert!(
+            excess <= 1e-12,
+            "GCV's α {alpha} scores {excess} above the scan's best"
+        );
+        assert!(
+            (alpha / brute).ln().abs() < 1e-4,
+            "GCV's α {alpha} vs the scan's {brute}"
+        );
+        assert_eq!(solver.solve().alpha, alpha);
+    }
+
+    /// One set (D = K) and multiplicities 1 and 2 for weights: GCV needs the weight of D + 2
+    /// observations; with D + 1 it leaves the solve the calibrated α.
+    #[test]
+    fn gcv_needs_a_weight_of_two_more_than_the_coefficients() {
+        let global = PriorModel::GLOBAL;
+        let truth = agreeing();
+        let d = global.rows(truth.basis().components());
+        let of_multiplicity = |m: f64| {
+            PairIndex::all()
+                .filter(move |&p| crate::table::pair_multiplicity(p) == m)
+                .step_by(211)
+        };
+        for weight in [d + 1, d + 2] {
+            let pairs: Vec<PairIndex> = of_multiplicity(2.0)
+                .take(weight / 2)
+                .chain(of_multiplicity(1.0).take(weight % 2))
+                .collect();
+            let solver = painted(global, Regularization::Gcv, &truth, &pairs);
+            assert_eq!(solver.weight_sum, weight as f64);
+            let p0 = solver.prior_precision_of(&global);
+            let alpha = solver.gcv_alpha(&p0);
+            assert_eq!(alpha.is_some(), weight == d + 2, "weight {weight}");
+            let expected = alpha.unwrap_or(DEFAULT_ALPHA);
+            assert_eq!(solver.solve().alpha, expected);
+        }
     }
 }

@@ -730,4 +730,26 @@ mod tests {
             assert_eq!(solver.solve().alpha, expected);
         }
     }
+
+    /// The evidence for a fitted reference is weighed at the α the solve uses where the prior
+    /// sets it, and at the calibrated α where the solve fits α itself (GCV) or has no prior.
+    #[test]
+    fn the_evidence_for_a_reference_takes_the_alpha_of_the_prior() {
+        let (truth, pairs) = (agreeing(), sparse());
+        for (regularization, expected) in [
+            (Regularization::Prior { alpha: 3.0 }, 3.0),
+            (Regularization::Auto, DEFAULT_ALPHA),
+            (Regularization::Gcv, DEFAULT_ALPHA),
+            (Regularization::Ridge { lambda: 0.5 }, DEFAULT_ALPHA),
+        ] {
+            let solver = painted(MODEL, regularization, &truth, &pairs);
+            assert_eq!(solver.evidence_alpha(), expected, "{regularization}");
+            if matches!(
+                regularization,
+                Regularization::Prior { .. } | Regularization::Auto
+            ) {
+                assert_eq!(solver.solve().alpha, expected, "{regularization}");
+            }
+        }
+    }
 }

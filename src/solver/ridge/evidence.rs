@@ -665,43 +665,54 @@ mod tests {
         count * rss / (count - df).powi(2)
     }
 
+    /// GCV's α is the minimiser of the score, found by brute force, over the whole search
+    /// range: a prior s times as tight (sP₀) asks for α/s, since only αP₀ enters the fit.
     #[test]
     fn gcv_alpha_minimises_the_gcv_score() {
         let solver = noisy(MODEL, &agreeing(), &spread());
         let p0 = solver.prior_precision_of(&MODEL);
-        let alpha = solver.gcv_alpha(&p0).expect("enough bins for GCV");
-        // Brute force: the best of 400 steps over the search range, then twice more around it.
-        let (mut lo, mut hi) = (ALPHA_MIN.ln(), ALPHA_MAX.ln());
-        let mut best = (f64::INFINITY, lo);
-        for _ in 0..3 {
-            let step = (hi - lo) / 400.0;
-            for i in 0..=400 {
-                let t = lo + step * i as f64;
-                let s = gcv_score(&solver, &p0, t.exp());
-                if s < best.0 {
-                    best = (s, t);
+        let calibrated = solver.gcv_alpha(&p0).expect("enough bins for GCV");
+        assert_eq!(solver.solve().alpha, calibrated);
+        for scale in [1.0, 0.1, 0.01, 0.001] {
+            let p0 = &p0 * scale;
+            let alpha = solver.gcv_alpha(&p0).expect("enough bins for GCV");
+            // Brute force: the best of 400 steps over the search range, then twice more
+            // around it.
+            let (mut lo, mut hi) = (ALPHA_MIN.ln(), ALPHA_MAX.ln());
+            let mut best = (f64::INFINITY, lo);
+            for _ in 0..3 {
+                let step = (hi - lo) / 400.0;
+                for i in 0..=400 {
+                    let t = lo + step * i as f64;
+                    let s = gcv_score(&solver, &p0, t.exp());
+                    if s < best.0 {
+                        best = (s, t);
+                    }
                 }
+                lo = (best.1 - step).max(ALPHA_MIN.ln());
+                hi = (best.1 + step).min(ALPHA_MAX.ln());
             }
-            lo = (best.1 - step).max(ALPHA_MIN.ln());
-            hi = (best.1 + step).min(ALPHA_MAX.ln());
+            let brute = best.1.exp();
+            assert!(
+                2.0 * ALPHA_MIN < brute && brute < ALPHA_MAX / 2.0,
+                "prior × {scale}: the minimum is inside the range: {brute}"
+            );
+            // The score is flat about its minimum (1e-10 higher 0.1% away): GCV's α must
+            // score as well as the scan's best, to rounding, and lie within 0.01% of it.
+            let excess = gcv_score(&solver, &p0, alpha) / best.0 - 1.0;
+            assert!(
+                excess <= 1e-12,
+                "prior × {scale}: GCV's α {alpha} scores {excess} above the scan's best"
+            );
+            assert!(
+                (alpha / brute).ln().abs() < 1e-4,
+                "prior × {scale}: GCV's α {alpha} vs the scan's {brute}"
+            );
+            assert!(
+                (alpha * scale / calibrated).ln().abs() < 1e-4,
+                "prior × {scale}: α {alpha} vs {calibrated}"
+            );
         }
-        let brute = best.1.exp();
-        assert!(
-            ALPHA_MIN * 10.0 < brute && brute < ALPHA_MAX / 10.0,
-            "the minimum is inside the range: {brute}"
-        );
-        // The score is flat about its minimum (1e-10 higher 0.1% away): GCV's α must score as
-        // well as the scan's best, to rounding, and lie within 0.01% of it.
-        let excess = gcv_score(&solver, &p0, alpha) / best.0 - 1.0;
-        assert!(
-            excess <= 1e-12,
-            "GCV's α {alpha} scores {excess} above the scan's best"
-        );
-        assert!(
-            (alpha / brute).ln().abs() < 1e-4,
-            "GCV's α {alpha} vs the scan's {brute}"
-        );
-        assert_eq!(solver.solve().alpha, alpha);
     }
 
     /// One set (D = K) and multiplicities 1 and 2 for weights: GCV needs the weight of D + 2

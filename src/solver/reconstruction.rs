@@ -232,3 +232,145 @@ impl Evaluator<'_> {
         ]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::build::small_test_basis;
+    use crate::materials::models::Distribution;
+    use crate::solver::analytic_fit::LambertMicrofacet;
+    use crate::table::PAIRS;
+
+    /// Coefficients that differ per band, per channel and per component, so that a wrong
+    /// band, channel or component shows.
+    fn banded_coefficients(k: usize) -> Vec<[f64; 3]> {
+        (0..BANDS * k)
+            .map(|i| {
+                let (band, j) = ((i / k) as f64, (i % k) as f64);
+                [
+                    0.3 * (band - 2.0) + 0.1 * j,
+                    -0.2 * band + 0.05 * j,
+                    0.1 * (band * j).sin(),
+                ]
+            })
+            .collect()
+    }
+
+    fn reference(basis: &Arc<Basis>) -> Arc<FittedReference> {
+        Arc::new(FittedReference::new(
+            basis.clone(),
+            LambertMicrofacet {
+                albedo: [0.5, 0.3, 0.2],
+                f0: [0.05; 3],
+                specular: 1.0,
+                distribution: Distribution::Ggx,
+                alpha_x: 0.3,
+                alpha_y: 0.3,
+                rotation: 0.0,
+                coat: None,
+                haze: None,
+                edge: None,
+            },
+        ))
+    }
+
+    /// Pairs from every polar bin of both directions, in a scattered order.
+    fn sample_pairs() -> Vec<PairIndex> {
+        (0..PAIRS)
+            .step_by(4099)
+            .map(PairIndex::from_index)
+            .collect()
+    }
+
+    /// A view's entries (one at a time, by pair or by its two directions in either order,
+    /// or a batch small or large enough to run in parallel) are the exported table's, for a
+    /// localised solution measured from a fitted reference. Each lookup finds the polar bins
+    /// of its directions itself, and the cosine weight it divides by depends on them.
+    #[test]
+    fn every_way_of_evaluating_an_entry_gives_the_tables_value() {
+        let basis = small_test_basis();
+        let x = banded_coefficients(basis.components());
+        let reconstruction =
+            Reconstruction::new(basis.clone(), &x).with_reference(Some(reference(&basis)));
+        let table = reconstruction.materialize();
+        let pairs = sample_pairs();
+        let mut batch = Vec::new();
+        reconstruction.eval_pairs(&pairs, &mut batch);
+        assert_eq!(batch.len(), pairs.len());
+        for (&pair, &batched) in pairs.iter().zip(&batch) {
+            let want = table.pairs()[pair.index()];
+            let (lo, hi) = crate::table::pair_directions(pair);
+            assert_eq!(reconstruction.eval_pair(pair), want, "{pair:?}");
+            assert_eq!(reconstruction.eval(lo, hi), want, "{pair:?}");
+            assert_eq!(reconstruction.eval(hi, lo), want, "{pair:?}");
+            assert_eq!(batched, want, "{pair:?}");
+        }
+        // A request as large as a whole view's is evaluated in parallel, in order.
+        let many: Vec<PairIndex> = (0..PAIRS)
+            .rev()
+            .step_by(37)
+            .map(PairIndex::from_index)
+            .collect();
+        assert!(many.len() > 20_000);
+        reconstruction.eval_pairs(&many, &mut batch);
+        assert_eq!(batch.len(), many.len());
+        for (&pair, &batched) in many.iter().zip(&batch) {
+            assert_eq!(batched, table.pairs()[pair.index()], "{pair:?}");
+        }
+    }
+
+    /// A localised solution at a pair is the global solution whose coefficients are the two
+    /// bands' around the pair's θ_d, blended by the pair's weight.
+    #[test]
+    fn a_localised_solution_blends_the_two_bands_around_each_pair() {
+        let basis = small_test_basis();
+        let k = basis.components();
+        let x = banded_coefficients(k);
+        let localised = Reconstruction::new(basis.clone(), &x);
+        let weights = pair_bands_spaced(DEFAULT_KNOTS);
+        let mut blended_somewhere = false;
+        for pair in sample_pairs() {
+            let w = weights[pair.index()];
+            let band = |b: usize, j: usize| x[(b.min(BANDS - 1)) * k + j];
+            let blend: Vec<[f64; 3]> = (0..k)
+                .map(|j| {
+                    let (lower, upper) = (band(w.lower as usize, j), band(w.lower as usize + 1, j));
+                    std::array::from_fn(|c| lower[c] + f64::from(w.frac) * (upper[c] - lower[c]))
+                })
+                .collect();
+            blended_somewhere |= w.frac > 0.05 && w.frac < 0.95;
+            let want = Reconstruction::new(basis.clone(), &blend).eval_pair(pair);
+            let got = localised.eval_pair(pair);
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() <= 1e-4 * want[c].abs() + 1e-6,
+                    "{pair:?} channel {c}: {got:?} against the blend's {want:?} ({w:?})"
+                );
+            }
+        }
+        assert!(blended_somewhere, "no sampled pair lies between two knots");
+    }
+
+    /// What a reconstruction reports of itself: its coefficient sets and its reference.
+    #[test]
+    fn a_reconstruction_reports_its_bands_and_reference() {
+        let basis = small_test_basis();
+        let k = basis.components();
+        let global = Reconstruction::new(basis.clone(), &vec![[0.1; 3]; k]);
+        assert_eq!(global.bands(), 1);
+        assert!(global.reference().is_none());
+        let localised = Reconstruction::new(basis.clone(), &banded_coefficients(k));
+        assert_eq!(localised.bands(), BANDS);
+        let fitted = reference(&basis);
+        let measured = localised.with_reference(Some(fitted.clone()));
+        assert!(Arc::ptr_eq(
+            measured.reference().expect("a reference"),
+            &fitted
+        ));
+        assert!(measured.with_reference(None).reference().is_none());
+        assert!(Arc::ptr_eq(
+            Reconstruction::mean_material(basis.clone()).basis(),
+            &basis
+        ));
+    }
+}

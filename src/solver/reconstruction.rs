@@ -319,6 +319,46 @@ mod tests {
         }
     }
 
+    /// An entry is the basis's mean plus its rows times the coefficients, clamped to the range
+    /// the database spans and unmapped (written out here from the basis's arrays in f64).
+    #[test]
+    fn an_entry_is_the_unmapped_sum_of_the_mean_and_the_weighted_rows() {
+        let basis = small_test_basis();
+        let k = basis.components();
+        let mut clamped = 0;
+        // Small coefficients stay inside the range; large ones reach its ends.
+        for scale in [1.0, 5000.0] {
+            let x: Vec<[f64; 3]> = (0..k)
+                .map(|j| [0.4 - 0.1 * j as f64, 0.2 * j as f64, -0.3].map(|v| v * scale))
+                .collect();
+            let reconstruction = Reconstruction::new(basis.clone(), &x);
+            for pair in sample_pairs() {
+                let p = pair.index();
+                let (lo, hi) = crate::table::pair_directions(pair);
+                let c = cos_weight_polar(lo as usize / PHI_BINS, hi as usize / PHI_BINS);
+                let got = reconstruction.eval_pair(pair);
+                for ch in 0..3 {
+                    let sum: f64 = (0..k)
+                        .map(|j| f64::from(basis.rows()[p * k + j]) * x[j][ch])
+                        .sum();
+                    let range = f64::from(basis.lowers()[p] - RANGE_MARGIN)
+                        ..=f64::from(basis.uppers()[p] + RANGE_MARGIN);
+                    let mapped = f64::from(basis.means()[p]) + sum;
+                    clamped += usize::from(!range.contains(&mapped));
+                    let mapped = mapped.clamp(*range.start(), *range.end());
+                    let reference = f64::from(basis.references()[p]) + MAP_EPSILON;
+                    let want = ((mapped.exp() * reference - MAP_EPSILON) / c).max(0.0);
+                    assert!(
+                        (f64::from(got[ch]) - want).abs() <= 1e-4 * want + 1e-7,
+                        "{pair:?} channel {ch}: {} against {want}",
+                        got[ch]
+                    );
+                }
+            }
+        }
+        assert!(clamped > 0, "no sampled entry reaches the database's range");
+    }
+
     /// A localised solution at a pair is the global solution whose coefficients are the two
     /// bands' around the pair's θ_d, blended by the pair's weight.
     #[test]

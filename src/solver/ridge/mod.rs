@@ -774,3 +774,250 @@ fn prior_scales(variances: &[f64]) -> Vec<f64> {
         .map(|v| v.max(top * 1e-12).sqrt())
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::build::small_test_basis;
+    use crate::table::{PAIRS, bin_centre, pair_multiplicity};
+
+    /// The calibrated prior centred on the database's mean, with ρ kept as configured: no fit
+    /// is due and the evidence chooses nothing, so the solve's system is the model's own.
+    const MODEL: PriorModel = PriorModel {
+        mean: PriorMean::Database,
+        correlation_by_evidence: false,
+        ..PriorModel::CALIBRATED
+    };
+
+    /// The product of the cosines of a pair's two bin centres, from the centres themselves.
+    fn cosines(pair: PairIndex) -> f64 {
+        let (lo, hi) = pair_directions(pair);
+        bin_centre(lo).z * bin_centre(hi).z
+    }
+
+    /// w_p written out from the module's formula: m_p × ((L_p + κL̄)/((1 + κ)L̄))^β rounded to a
+    /// quarter octave, L̄ the painted bins' mean L_p rounded to a half octave (no weighting when
+    /// β = 0 or nothing bright is painted).
+    fn expected_weight(model: &PriorModel, pair: PairIndex, brightness: f64, mean: f64) -> f64 {
+        let m = pair_multiplicity(pair);
+        if model.brightness_exponent == 0.0 || mean <= 1e-12 {
+            return m;
+        }
+        let reference = 2f64.powf((2.0 * mean.log2()).round() / 2.0);
+        let kappa = model.brightness_floor;
+        let b = ((brightness + kappa * reference) / ((1.0 + kappa) * reference))
+            .powf(model.brightness_exponent);
+        m * 2f64.powf((4.0 * b.log2()).round() / 4.0)
+    }
+
+    /// ψ_p: the basis row u_p on the sets the pair's θ_d blends.
+    fn design_row(model: &PriorModel, basis: &Basis, pair: PairIndex) -> Vec<f64> {
+        let k = basis.components();
+        let mut psi = vec![0.0; model.rows(k)];
+        for (j, phi) in model.band_weights(pair).pairs() {
+            // One set's second weight is zero, and names no set.
+            if phi == 0.0 {
+                continue;
+            }
+            for (i, &u) in basis.row(pair).iter().enumerate() {
+                psi[j * k + i] += phi * u as f64;
+            }
+        }
+        psi
+    }
+
+    /// N, r, yᵀWy and Σw summed bin by bin.
+    struct Expected {
+        normal: Vec<f64>,
+        rhs: Vec<[f64; 3]>,
+        yty: [f64; 3],
+        weight_sum: f64,
+    }
+
+    /// The sums over `bins` (value and bounds per pair), each bin measured from `reference`
+    /// (`None`: the basis's mean), an "at least" channel at least at the prior's zero.
+    fn expected_from(
+        model: &PriorModel,
+        basis: &Basis,
+        reference: Option<&FittedReference>,
+        bins: &BTreeMap<PairIndex, ([f64; 3], Bounds)>,
+    ) -> Expected {
+        let d = model.rows(basis.components());
+        let brightness = |pair: PairIndex, rho: [f64; 3]| {
+            ((0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2]) * cosines(pair)).max(0.0)
+        };
+        let mean = bins
+            .iter()
+            .map(|(&pair, &(rho, _))| brightness(pair, rho))
+            .sum::<f64>()
+            / bins.len().max(1) as f64;
+        let mut e = Expected {
+            normal: vec![0.0; d * d],
+            rhs: vec![[0.0; 3]; d],
+            yty: [0.0; 3],
+            weight_sum: 0.0,
+        };
+        for (&pair, &(rho, bounds)) in bins {
+            let w = expected_weight(model, pair, brightness(pair, rho), mean);
+            let psi = design_row(model, basis, pair);
+            let y: [f64; 3] = std::array::from_fn(|c| {
+                let y = match reference {
+                    None => basis.centred_observation(pair, rho[c]),
+                    Some(r) => basis.centred_residual(pair, rho[c], r.offset(pair)[c] as f64),
+                };
+                if bounds[c] == Bound::AtLeast {
+                    y.max(0.0)
+                } else {
+                    y
+                }
+            });
+            for a in 0..d {
+                for b in 0..d {
+                    e.normal[a * d + b] += w * psi[a] * psi[b];
+                }
+                for c in 0..3 {
+                    e.rhs[a][c] += w * psi[a] * y[c];
+                }
+            }
+            for c in 0..3 {
+                e.yty[c] += w * y[c] * y[c];
+            }
+            e.weight_sum += w;
+        }
+        e
+    }
+
+    /// The largest difference of two lists against the larger's largest magnitude (at least
+    /// `floor`).
+    fn relative_gap(a: &[f64], b: &[f64], floor: f64) -> f64 {
+        assert_eq!(a.len(), b.len());
+        let scale = a.iter().chain(b).fold(floor, |m, v| m.max(v.abs()));
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+            / scale
+    }
+
+    /// The solver's N, r, yᵀWy and Σw against the bin-by-bin sums of `bins`.
+    fn assert_holds(solver: &Solver, bins: &BTreeMap<PairIndex, ([f64; 3], Bounds)>, at: &str) {
+        assert_holds_from(solver, None, bins, at);
+    }
+
+    /// As [`assert_holds`], each bin measured from `reference`.
+    fn assert_holds_from(
+        solver: &Solver,
+        reference: Option<&FittedReference>,
+        bins: &BTreeMap<PairIndex, ([f64; 3], Bounds)>,
+        at: &str,
+    ) {
+        let e = expected_from(&solver.model, &solver.basis, reference, bins);
+        let (normal, rhs) = solver.normal_equations();
+        let gap = relative_gap(normal, &e.normal, 1e-300);
+        assert!(gap < 1e-10, "{at}: N off by {gap:e}");
+        let flat = |v: &[[f64; 3]]| v.iter().flatten().copied().collect::<Vec<f64>>();
+        let gap = relative_gap(&flat(rhs), &flat(&e.rhs), 1e-300);
+        assert!(gap < 1e-10, "{at}: r off by {gap:e}");
+        let gap = relative_gap(&solver.yty, &e.yty, 1e-300);
+        assert!(gap < 1e-10, "{at}: yᵀWy off by {gap:e}");
+        let gap = relative_gap(&[solver.weight_sum], &[e.weight_sum], 1e-300);
+        assert!(gap < 1e-12, "{at}: Σw off by {gap:e}");
+        let censored: BTreeSet<PairIndex> = bins
+            .iter()
+            .filter(|(_, (_, bounds))| *bounds != EXACT)
+            .map(|(&pair, _)| pair)
+            .collect();
+        assert_eq!(solver.censored, censored, "{at}: censored bins");
+        assert_eq!(solver.observed_bins(), bins.len(), "{at}");
+    }
+
+    /// L_p is the Rec. 709 luminance of the value times cos θ_l cos θ_v of the pair's bin
+    /// centres: linear in the value, and nothing for a value darker than black.
+    #[test]
+    fn a_bins_brightness_is_its_luminance_lit_and_seen_at_its_angles() {
+        for pair in [12_345, 777_777, PAIRS - 1].map(PairIndex::from_index) {
+            let c = cosines(pair);
+            assert!(c > 0.0 && c < 1.0, "{pair}: {c}");
+            for (rho, luminance) in [
+                ([1.0, 0.0, 0.0], 0.2126),
+                ([0.0, 1.0, 0.0], 0.7152),
+                ([0.0, 0.0, 1.0], 0.0722),
+                ([0.5, 2.0, 4.0], 0.1063 + 1.4304 + 0.2888),
+            ] {
+                let l = bin_brightness(pair, rho);
+                assert!(
+                    (l - luminance * c).abs() <= 1e-12 * l,
+                    "{pair} {rho:?}: {l}"
+                );
+            }
+            assert_eq!(bin_brightness(pair, [-1.0, -1.0, -1.0]), 0.0);
+        }
+    }
+
+    /// Paint, repaint at the same and at another brightness, clipped paint and erasure, in
+    /// an order that moves L̄ across several half octaves and back: after every change the
+    /// normal equations are the bin-by-bin sums over the bins painted now, each weighted by
+    /// m_p b_p with L̄ of those bins alone, whatever the order of the changes.
+    #[test]
+    fn every_change_leaves_the_normal_equations_of_the_bins_painted_now() {
+        let basis = small_test_basis();
+        let mut solver = Solver::with_model(basis.clone(), Regularization::Auto, MODEL);
+        let pairs: Vec<PairIndex> = (0..24)
+            .map(|i| PairIndex::from_index((i * 1_299_709 + 4_321) % PAIRS))
+            .collect();
+        let mut bins = BTreeMap::new();
+        let colour = |i: usize| [0.3, 0.5, 0.2].map(|v| v * (1.0 + 0.1 * (i % 3) as f64));
+        for step in 0..240 {
+            let i = step * 7 % pairs.len();
+            let pair = pairs[i];
+            // Brightness swings by orders of magnitude in slow waves, so L̄ drifts both ways.
+            let scale = [0.02, 0.2, 2.0, 20.0][(step / 30) % 4] * (1.0 + 0.001 * (step % 5) as f64);
+            let change = match step % 9 {
+                0 => BinChange {
+                    pair,
+                    before: None,
+                    after: None,
+                    bounds: EXACT,
+                    inconsistent: false,
+                },
+                4 => {
+                    let bounds = [Bound::AtLeast, Bound::Exact, Bound::AtLeast];
+                    BinChange::observed(pair, colour(i).map(|v| v * scale), bounds)
+                }
+                _ => BinChange::observed(pair, colour(i).map(|v| v * scale), EXACT),
+            };
+            match change.after {
+                Some(rho) => bins.insert(pair, (rho, change.bounds)),
+                None => bins.remove(&pair),
+            };
+            solver.apply(&change);
+            assert_holds(&solver, &bins, &format!("step {step}"));
+        }
+        // The same value again, a value within the same quarter octave of weight, and a much
+        // brighter one: the first two move only the right-hand side.
+        let pair = *bins.keys().next().expect("bins are painted");
+        let rho = bins[&pair].0;
+        for factor in [1.0, 1.0001, 50.0] {
+            let after = rho.map(|v| v * factor);
+            bins.insert(pair, (after, EXACT));
+            solver.apply(&BinChange::observed(pair, after, EXACT));
+            assert_holds(&solver, &bins, &format!("× {factor}"));
+        }
+        // Erasing everything leaves exact zeros, not rounding residue.
+        for pair in bins.keys().copied().collect::<Vec<_>>() {
+            bins.remove(&pair);
+            solver.apply(&BinChange {
+                pair,
+                before: None,
+                after: None,
+                bounds: EXACT,
+                inconsistent: false,
+            });
+            assert_holds(&solver, &bins, &format!("erasing {pair}"));
+        }
+        let (normal, rhs) = solver.normal_equations();
+        assert!(normal.iter().all(|&v| v == 0.0));
+        assert!(rhs.iter().flatten().all(|&v| v == 0.0));
+        assert_eq!((solver.yty, solver.weight_sum), ([0.0; 3], 0.0));
+    }
+}

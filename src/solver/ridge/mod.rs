@@ -779,7 +779,7 @@ fn prior_scales(variances: &[f64]) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::basis::build::small_test_basis;
-    use crate::table::{PAIRS, bin_centre, pair_multiplicity};
+    use crate::table::{DIRECTIONS, PAIRS, bin_centre, pair_multiplicity};
 
     /// The calibrated prior centred on the database's mean, with ρ kept as configured: no fit
     /// is due and the evidence chooses nothing, so the solve's system is the model's own.
@@ -1019,5 +1019,221 @@ mod tests {
         assert!(normal.iter().all(|&v| v == 0.0));
         assert!(rhs.iter().flatten().all(|&v| v == 0.0));
         assert_eq!((solver.yty, solver.weight_sum), ([0.0; 3], 0.0));
+    }
+
+    /// The sums over `bins`, each measured from the basis's mean.
+    fn expected(
+        model: &PriorModel,
+        basis: &Basis,
+        bins: &BTreeMap<PairIndex, ([f64; 3], Bounds)>,
+    ) -> Expected {
+        expected_from(model, basis, None, bins)
+    }
+
+    /// A model's P₀ written out: the inverse of the equicorrelated (1 − ρ)I + ρ11ᵀ across the
+    /// B sets, (I − ρ/(1 − ρ + Bρ)·11ᵀ)/(1 − ρ), over σ_k² between the same component of two sets.
+    fn closed_form_precision(model: &PriorModel, basis: &Basis) -> Mat<f64> {
+        assert_eq!(model.band_length, 0.0, "the equicorrelated prior");
+        let (k, b, rho) = (basis.components(), model.bands, model.band_correlation);
+        let variances = basis.variances();
+        Mat::<f64>::from_fn(b * k, b * k, |p, q| {
+            if p % k != q % k {
+                return 0.0;
+            }
+            let diagonal = if p / k == q / k { 1.0 } else { 0.0 };
+            // One set has no correlation to invert (ρ is 1 there by convention).
+            let inverse = if b == 1 {
+                1.0
+            } else {
+                (diagonal - rho / (1.0 - rho + b as f64 * rho)) / (1.0 - rho)
+            };
+            inverse / variances[p % k]
+        })
+    }
+
+    /// Bins spread over every θ_d with values of a few colours and brightnesses.
+    fn painted_bins(count: usize) -> BTreeMap<PairIndex, ([f64; 3], Bounds)> {
+        (0..count)
+            .map(|i| {
+                let pair = PairIndex::from_index((i * 7_919 * 131 + 17) % PAIRS);
+                let rho = [0.2, 0.4, 0.1].map(|v| v * (1.0 + (i % 7) as f64));
+                (pair, (rho, EXACT))
+            })
+            .collect()
+    }
+
+    fn solver_with(
+        model: PriorModel,
+        regularization: Regularization,
+        bins: &BTreeMap<PairIndex, ([f64; 3], Bounds)>,
+    ) -> Solver {
+        let mut solver = Solver::with_model(small_test_basis(), regularization, model);
+        for (&pair, &(rho, bounds)) in bins {
+            solver.apply(&BinChange::observed(pair, rho, bounds));
+        }
+        solver
+    }
+
+    /// The solve is the dense solution of (N + αP₀)x = r + αP₀(1 ⊗ x₀) for the prior, of
+    /// (N + λI)x = r + λ(1 ⊗ x₀) for plain ridge, with N and r summed bin by bin, P₀ in
+    /// closed form and x₀ a start; its condition number is that of the matrix it factored
+    /// (the estimate never exceeds it and, for these, comes within a factor of 3).
+    #[test]
+    fn the_solve_is_the_dense_solution_of_the_regularised_system() {
+        let basis = small_test_basis();
+        let k = basis.components();
+        let bins = painted_bins(60);
+        let start: Vec<[f64; 3]> = basis
+            .variances()
+            .iter()
+            .map(|v| [0.4 * v.sqrt(), -0.2 * v.sqrt(), 0.1 * v.sqrt()])
+            .collect();
+        for model in [MODEL, PriorModel::GLOBAL] {
+            let d = model.rows(k);
+            let e = expected(&model, &basis, &bins);
+            let n = Mat::<f64>::from_fn(d, d, |i, j| e.normal[i * d + j]);
+            let r = Mat::<f64>::from_fn(d, 3, |i, c| e.rhs[i][c]);
+            let x0 = Mat::<f64>::from_fn(d, 3, |i, c| start[i % k][c]);
+            let p0 = closed_form_precision(&model, &basis);
+            for (regularization, alpha, prior) in [
+                (Regularization::Prior { alpha: 0.7 }, 0.7, &p0 * 0.7),
+                (Regularization::Auto, DEFAULT_ALPHA, &p0 * DEFAULT_ALPHA),
+                (
+                    Regularization::Ridge { lambda: 0.05 },
+                    0.05,
+                    Mat::<f64>::identity(d, d) * 0.05,
+                ),
+            ] {
+                for mean in [None, Some(&x0)] {
+                    let mut solver = solver_with(model, regularization, &bins);
+                    solver.set_prior_mean(mean.map(|_| start.clone()));
+                    let m = &n + &prior;
+                    let rhs = match mean {
+                        Some(x0) => &r + &prior * x0,
+                        None => r.clone(),
+                    };
+                    let lu = m.partial_piv_lu();
+                    let want = lu.solve(&rhs);
+                    let solution = solver.solve();
+                    let at = format!("{model:?} {regularization} start {}", mean.is_some());
+                    let got: Vec<f64> = solution.coefficients.iter().flatten().copied().collect();
+                    let want: Vec<f64> = (0..d)
+                        .flat_map(|i| (0..3).map(move |c| (i, c)))
+                        .map(|(i, c)| want[(i, c)])
+                        .collect();
+                    let gap = relative_gap(&got, &want, 1e-300);
+                    assert!(gap < 1e-9, "{at}: x off by {gap:e}");
+                    assert_eq!(solution.alpha, alpha, "{at}");
+                    assert_eq!(solution.band_correlation, model.band_correlation, "{at}");
+                    assert_eq!(solution.observed_bins, bins.len(), "{at}");
+                    assert!(solution.reference.is_none(), "{at}");
+                    let inverse = lu.inverse();
+                    let norm = |a: &Mat<f64>| {
+                        (0..d)
+                            .map(|j| (0..d).map(|i| a[(i, j)].abs()).sum::<f64>())
+                            .fold(0.0, f64::max)
+                    };
+                    let condition = norm(&m) * norm(&inverse);
+                    assert!(
+                        solution.condition_number <= condition * (1.0 + 1e-9)
+                            && solution.condition_number >= condition / 3.0,
+                        "{at}: condition {} vs {condition}",
+                        solution.condition_number
+                    );
+                }
+            }
+        }
+    }
+
+    /// With nothing painted the solve is the prior's mean exactly: every set the start.
+    #[test]
+    fn an_empty_painting_solves_to_the_start_in_every_set() {
+        let basis = small_test_basis();
+        let k = basis.components();
+        let start: Vec<[f64; 3]> = (0..k)
+            .map(|i| [0.3 / (i + 1) as f64, -0.2, 0.1 * i as f64])
+            .collect();
+        let mut solver = Solver::with_model(basis, Regularization::Auto, MODEL);
+        solver.set_prior_mean(Some(start.clone()));
+        let solution = solver.solve();
+        assert_eq!(solution.coefficients.len(), MODEL.rows(k));
+        for (i, x) in solution.coefficients.iter().enumerate() {
+            for c in 0..3 {
+                assert!((x[c] - start[i % k][c]).abs() < 1e-12, "row {i}: {x:?}");
+            }
+        }
+    }
+
+    /// A start is kept as K rows: rows past K are dropped, missing ones and non-finite
+    /// values are zero; `None` centres the prior on the database's mean again.
+    #[test]
+    fn a_start_is_kept_as_k_finite_rows() {
+        let mut solver = Solver::with_model(small_test_basis(), Regularization::Auto, MODEL);
+        assert_eq!(solver.prior_mean(), None);
+        let k = solver.basis().components();
+        assert_eq!(k, 4);
+        solver.set_prior_mean(Some(vec![[1.0, f64::NAN, 2.0], [f64::INFINITY, 3.0, -4.0]]));
+        let want = [[1.0, 0.0, 2.0], [0.0, 3.0, -4.0], [0.0; 3], [0.0; 3]];
+        assert_eq!(solver.prior_mean(), Some(&want[..]));
+        solver.set_prior_mean(Some(vec![[0.5; 3]; 6]));
+        assert_eq!(solver.prior_mean(), Some(&[[0.5; 3]; 4][..]));
+        solver.set_prior_mean(None);
+        assert_eq!(solver.prior_mean(), None);
+    }
+
+    /// Plain ridge with λ = 0 leaves the unobserved sets singular: the factorisation fails
+    /// and the solve adds a jitter of 1e-12 of the matrix's largest entry, so the observed set
+    /// is the least-squares fit of its bins and the others stay zero. With nothing painted at
+    /// all the matrix is zero, and the jitter's floor alone makes it factorable.
+    #[test]
+    fn a_singular_system_is_solved_with_a_jitter_of_its_rounding() {
+        let basis = small_test_basis();
+        let k = basis.components();
+        let bands = |p: PairIndex| MODEL.band_weights(p);
+        // Pairs of one direction with itself: θ_d = 0, on the first knot alone.
+        let on_first_knot: BTreeMap<PairIndex, ([f64; 3], Bounds)> = (0..DIRECTIONS)
+            .step_by(DIRECTIONS / 12)
+            .map(|d| PairIndex::from_index(d * (d + 1) / 2 + d))
+            .inspect(|p| assert_eq!((bands(*p).lower, bands(*p).frac), (0, 0.0)))
+            .enumerate()
+            .map(|(i, p)| (p, ([0.1, 0.3, 0.2].map(|v| v * (1 + i % 4) as f64), EXACT)))
+            .collect();
+        let ridge = Regularization::Ridge { lambda: 0.0 };
+        let solver = solver_with(MODEL, ridge, &on_first_knot);
+        let e = expected(&MODEL, &basis, &on_first_knot);
+        let d = MODEL.rows(k);
+        let n = Mat::<f64>::from_fn(k, k, |i, j| e.normal[i * d + j]);
+        let r = Mat::<f64>::from_fn(k, 3, |i, c| e.rhs[i][c]);
+        let want = n.partial_piv_lu().solve(&r);
+        let solution = solver.solve();
+        let x = &solution.coefficients;
+        for i in 0..k {
+            for c in 0..3 {
+                let gap = (x[i][c] - want[(i, c)]).abs();
+                assert!(gap < 1e-6 * want[(i, c)].abs().max(1.0), "{i} {c}: {x:?}");
+            }
+        }
+        assert!(x[k..].iter().flatten().all(|&v| v == 0.0), "{x:?}");
+        assert!(solution.condition_number < CONDITION_LIMIT);
+
+        let empty = Solver::with_model(basis, ridge, MODEL).solve();
+        assert!(empty.coefficients.iter().flatten().all(|&v| v == 0.0));
+        assert_eq!(empty.condition_number, 1.0);
+    }
+
+    /// Where the prior has a degenerate component, its scale is floored at 1e-6 of the
+    /// largest (a variance 1e-12 of the largest): a huge but finite penalty.
+    #[test]
+    fn a_degenerate_component_gets_a_floored_prior_scale() {
+        let close = |got: Vec<f64>, want: &[f64]| {
+            assert_eq!(got.len(), want.len());
+            for (g, w) in got.iter().zip(want) {
+                assert!((g - w).abs() <= 1e-12 * w, "{got:?} vs {want:?}");
+            }
+        };
+        close(prior_scales(&[4.0, 0.0, 1.0]), &[2.0, 2e-6, 1.0]);
+        close(prior_scales(&[9.0, 1e-20, 0.25]), &[3.0, 3e-6, 0.5]);
+        let none = prior_scales(&[0.0, 0.0]);
+        assert!(none.iter().all(|&s| s > 0.0 && s.is_finite()), "{none:?}");
     }
 }

@@ -779,7 +779,10 @@ fn prior_scales(variances: &[f64]) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::basis::build::small_test_basis;
+    use crate::materials::tabulate;
+    use crate::solver::analytic_fit::{Distribution, LambertMicrofacet};
     use crate::table::{DIRECTIONS, PAIRS, bin_centre, pair_multiplicity};
+    use std::sync::OnceLock;
 
     /// The calibrated prior centred on the database's mean, with ρ kept as configured: no fit
     /// is due and the evidence chooses nothing, so the solve's system is the model's own.
@@ -1235,5 +1238,208 @@ mod tests {
         close(prior_scales(&[9.0, 1e-20, 0.25]), &[3.0, 3e-6, 0.5]);
         let none = prior_scales(&[0.0, 0.0]);
         assert!(none.iter().all(|&s| s > 0.0 && s.is_finite()), "{none:?}");
+    }
+
+    /// An orange plastic, and one rougher: models the fitted mean's own family can hold.
+    fn plastic(roughness: f64) -> LambertMicrofacet {
+        LambertMicrofacet {
+            albedo: [0.6, 0.3, 0.1],
+            f0: [0.04; 3],
+            specular: 1.0,
+            distribution: Distribution::Ggx,
+            alpha_x: roughness,
+            alpha_y: roughness,
+            rotation: 0.0,
+            coat: None,
+            haze: None,
+            edge: None,
+        }
+    }
+
+    /// The references of the smooth and the rough plastic on the test basis, built once.
+    fn references() -> &'static [Arc<FittedReference>; 2] {
+        static REFERENCES: OnceLock<[Arc<FittedReference>; 2]> = OnceLock::new();
+        REFERENCES.get_or_init(|| {
+            [0.2, 0.5].map(|a| Arc::new(FittedReference::new(small_test_basis(), plastic(a))))
+        })
+    }
+
+    /// Every 997th bin of the smooth plastic's table.
+    fn plastic_bins() -> BTreeMap<PairIndex, ([f64; 3], Bounds)> {
+        let table = tabulate(&plastic(0.2));
+        (0..PAIRS)
+            .step_by(997)
+            .map(|p| {
+                (
+                    PairIndex::from_index(p),
+                    (table.pairs()[p].map(f64::from), EXACT),
+                )
+            })
+            .collect()
+    }
+
+    /// The calibrated prior centred on a fitted mean taken past `margin_nats`.
+    fn fitted_model(margin_nats: f64) -> PriorModel {
+        PriorModel {
+            mean: PriorMean::Fitted {
+                margin_nats,
+                beckmann_margin: None,
+                coat_margin: None,
+                edge_margin: None,
+                haze_margin: None,
+            },
+            ..MODEL
+        }
+    }
+
+    /// A fit is installed only when it is newer than the installed one, no newer than the
+    /// bins and for a painting at all; once installed (taken or not) no fit is due until
+    /// the bins change. Taken, it re-measures every bin from the reference.
+    #[test]
+    fn a_fitted_mean_is_installed_only_when_it_is_the_newest_fit_of_these_bins() {
+        let [smooth, rough] = references();
+        let bins = plastic_bins();
+        let fit = |generation: u64, reference: &Arc<FittedReference>| FittedMean {
+            generation,
+            reference: reference.clone(),
+        };
+        let always = fitted_model(f64::NEG_INFINITY);
+        let mut empty = Solver::with_model(small_test_basis(), Regularization::Auto, always);
+        assert!(empty.prior_mean_is_current() && empty.mean_fit_request().is_none());
+        assert!(!empty.install_fitted_mean(fit(0, smooth)));
+        assert!(empty.reference().is_none());
+
+        let mut solver = solver_with(always, Regularization::Auto, &bins);
+        // Each painted bin is one change of the painting.
+        let generation = bins.len() as u64;
+        assert_eq!(solver.generation, generation);
+        assert!(!solver.prior_mean_is_current());
+        let request = solver.mean_fit_request().expect("a fit is due");
+        assert_eq!(
+            (request.generation, request.bins()),
+            (generation, bins.len())
+        );
+        // A fit of bins not yet painted is refused.
+        assert!(!solver.install_fitted_mean(fit(generation + 1, smooth)));
+        assert!(solver.reference().is_none() && !solver.prior_mean_is_current());
+        assert_holds_from(&solver, None, &bins, "refused");
+
+        assert!(solver.install_fitted_mean(fit(generation, smooth)));
+        assert!(Arc::ptr_eq(solver.reference().expect("taken"), smooth));
+        assert!(solver.prior_mean_is_current() && solver.mean_fit_request().is_none());
+        assert_holds_from(&solver, Some(&**smooth), &bins, "taken");
+        let solution = solver.solve();
+        assert!(Arc::ptr_eq(
+            solution.reference.as_ref().expect("taken"),
+            smooth
+        ));
+        // A second fit of the same bins is not newer.
+        assert!(!solver.install_fitted_mean(fit(generation, rough)));
+        assert!(Arc::ptr_eq(solver.reference().expect("kept"), smooth));
+
+        // A repaint makes a fit due again; an older fit is still the best guess until then.
+        let (&pair, &(rho, _)) = bins.iter().next().expect("bins are painted");
+        let mut repainted = bins.clone();
+        repainted.insert(pair, (rho.map(|v| 2.0 * v), EXACT));
+        solver.apply(&BinChange::observed(pair, rho.map(|v| 2.0 * v), EXACT));
+        assert_eq!(solver.generation, generation + 1);
+        assert!(!solver.prior_mean_is_current());
+        assert_eq!(
+            solver.mean_fit_request().map(|r| r.generation),
+            Some(generation + 1)
+        );
+        assert_holds_from(&solver, Some(&**smooth), &repainted, "repainted");
+        assert!(solver.install_fitted_mean(fit(generation + 1, rough)));
+        assert!(Arc::ptr_eq(solver.reference().expect("taken"), rough));
+        assert_holds_from(&solver, Some(&**rough), &repainted, "refitted");
+
+        // Erasing every bin drops the fit: the next painting starts from the database's mean.
+        for &pair in repainted.keys() {
+            solver.apply(&BinChange {
+                pair,
+                before: None,
+                after: None,
+                bounds: EXACT,
+                inconsistent: false,
+            });
+        }
+        solver.apply(&BinChange::observed(pair, rho, EXACT));
+        assert!(solver.reference().is_none() && !solver.prior_mean_is_current());
+    }
+
+    /// The fitted reference is taken exactly when it makes the bins more than e^margin times
+    /// as likely as the database's mean does (the evidence is checked against the marginal
+    /// likelihood in `evidence`); under the database's mean it never is. Either way the fit
+    /// is installed, and none is due until the bins change.
+    #[test]
+    fn a_fitted_mean_is_taken_only_past_the_evidence_margin() {
+        let [smooth, _] = references();
+        let bins = plastic_bins();
+        let probe = solver_with(fitted_model(0.0), Regularization::Auto, &bins);
+        let alpha = probe.evidence_alpha();
+        let rho = [MODEL.band_correlation];
+        let with = probe.evidence_from(alpha, Some(&**smooth), rho)[0].1;
+        let without = probe.evidence_from(alpha, None, rho)[0].1;
+        let gain = with - without;
+        assert!(
+            gain > 10.0,
+            "the plastic's own reference explains its bins: {gain}"
+        );
+        for (model, taken) in [
+            (fitted_model(gain - 1.0), true),
+            (fitted_model(gain + 1.0), false),
+            (MODEL, false),
+        ] {
+            let mut solver = solver_with(model, Regularization::Auto, &bins);
+            let fitted = FittedMean {
+                generation: solver.generation,
+                reference: smooth.clone(),
+            };
+            assert_eq!(
+                solver.install_fitted_mean(fitted),
+                taken,
+                "{:?}",
+                model.mean
+            );
+            assert_eq!(solver.reference().is_some(), taken);
+            assert!(solver.prior_mean_is_current());
+            let reference = taken.then_some(&**smooth);
+            assert_holds_from(&solver, reference, &bins, &format!("{:?}", model.mean));
+        }
+    }
+
+    /// A start, or centring on the database's mean, puts the fitted reference aside and
+    /// re-measures every bin from the basis's mean; dropping the start takes the installed
+    /// reference back. Asking again for the kind the model has changes nothing, and a
+    /// change of kind drops the installed fit.
+    #[test]
+    fn a_start_or_another_mean_kind_re_measures_the_bins() {
+        let [smooth, _] = references();
+        let bins = plastic_bins();
+        let always = fitted_model(f64::NEG_INFINITY);
+        let mut solver = solver_with(always, Regularization::Auto, &bins);
+        let generation = solver.generation;
+        assert!(solver.install_fitted_mean(FittedMean {
+            generation,
+            reference: smooth.clone(),
+        }));
+        let k = solver.basis().components();
+        solver.set_prior_mean(Some(vec![[0.1, 0.2, 0.3]; k]));
+        assert!(solver.reference().is_none());
+        assert_holds_from(&solver, None, &bins, "a start");
+        solver.set_prior_mean(None);
+        assert!(Arc::ptr_eq(solver.reference().expect("back"), smooth));
+        assert_holds_from(&solver, Some(&**smooth), &bins, "no start");
+
+        solver.set_mean_kind(always.mean);
+        assert!(Arc::ptr_eq(solver.reference().expect("kept"), smooth));
+        assert!(solver.prior_mean_is_current());
+        solver.set_mean_kind(PriorMean::Database);
+        assert_eq!(solver.model().mean, PriorMean::Database);
+        assert!(solver.reference().is_none());
+        assert_holds_from(&solver, None, &bins, "the database's mean");
+        solver.set_mean_kind(always.mean);
+        assert!(solver.reference().is_none() && !solver.prior_mean_is_current());
+        assert_holds_from(&solver, None, &bins, "no fit yet");
     }
 }

@@ -838,7 +838,8 @@ mod tests {
     }
 
     /// The sums over `bins` (value and bounds per pair), each bin measured from `reference`
-    /// (`None`: the basis's mean), an "at least" channel at least at the prior's zero.
+    /// (`None`: the basis's mean), a bounded channel at the prior's zero where that meets
+    /// the bound.
     fn expected_from(
         model: &PriorModel,
         basis: &Basis,
@@ -868,10 +869,10 @@ mod tests {
                     None => basis.centred_observation(pair, rho[c]),
                     Some(r) => basis.centred_residual(pair, rho[c], r.offset(pair)[c] as f64),
                 };
-                if bounds[c] == Bound::AtLeast {
-                    y.max(0.0)
-                } else {
-                    y
+                match bounds[c] {
+                    Bound::Exact => y,
+                    Bound::AtLeast => y.max(0.0),
+                    Bound::AtMost => y.min(0.0),
                 }
             });
             for a in 0..d {
@@ -1441,5 +1442,128 @@ mod tests {
         solver.set_mean_kind(always.mean);
         assert!(solver.reference().is_none() && !solver.prior_mean_is_current());
         assert_holds_from(&solver, None, &bins, "no fit yet");
+    }
+
+    /// With nothing bright painted (L̄ at most 1e-12, black paint included) there is no
+    /// brightness to weigh by: every bin weighs its multiplicity, and so does a bin a view
+    /// would add to an empty painting. Once L̄ is set, a prospective bin weighs what the
+    /// same bin painted would.
+    #[test]
+    fn without_bright_paint_a_bin_weighs_its_multiplicity() {
+        let bins = painted_bins(12);
+        for scale in [0.0, 1e-13, 1e-15] {
+            // Two brightnesses a decade apart, both too dark to set L̄.
+            let dark: BTreeMap<PairIndex, ([f64; 3], Bounds)> = bins
+                .iter()
+                .enumerate()
+                .map(|(i, (&pair, &(rho, _)))| {
+                    let s = if i % 2 == 0 { scale } else { 10.0 * scale };
+                    (pair, (rho.map(|v| v * s), EXACT))
+                })
+                .collect();
+            let solver = solver_with(MODEL, Regularization::Auto, &dark);
+            for (&pair, obs) in &solver.observed {
+                assert_eq!(obs.weight, pair_multiplicity(pair), "× {scale}: {pair}");
+            }
+            assert_holds(&solver, &dark, &format!("× {scale}"));
+        }
+        let empty = Solver::with_model(small_test_basis(), Regularization::Auto, MODEL);
+        let pair = PairIndex::from_index(654_321);
+        assert_eq!(pair_multiplicity(pair), 2.0);
+        assert_eq!(empty.prospective_weight(pair, [0.5; 3]), 2.0);
+
+        let solver = solver_with(MODEL, Regularization::Auto, &bins);
+        let l =
+            |rho: [f64; 3]| (0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2]) * cosines(pair);
+        let mean = bins
+            .iter()
+            .map(|(&p, &(rho, _))| {
+                (0.2126 * rho[0] + 0.7152 * rho[1] + 0.0722 * rho[2]) * cosines(p)
+            })
+            .sum::<f64>()
+            / bins.len() as f64;
+        for rho in [[0.01; 3], [0.5; 3], [40.0; 3]] {
+            let want = expected_weight(&MODEL, pair, l(rho), mean);
+            assert_eq!(solver.prospective_weight(pair, rho), want, "{rho:?}");
+        }
+    }
+
+    /// Under [`Censoring::OmitClipped`] clipped paint says nothing: it adds no bin and
+    /// erases what the bin held; paint only "at most" this dark, or exact, still counts.
+    #[test]
+    fn omitted_clipped_paint_erases_the_bin() {
+        let model = PriorModel {
+            censoring: Censoring::OmitClipped,
+            ..MODEL
+        };
+        let mut bins = painted_bins(10);
+        let mut solver = solver_with(model, Regularization::Auto, &bins);
+        assert_holds(&solver, &bins, "painted");
+        let clipped = [Bound::AtLeast, Bound::Exact, Bound::Exact];
+        let pairs: Vec<PairIndex> = bins.keys().copied().take(3).collect();
+        for &pair in &pairs {
+            let rho = bins[&pair].0;
+            solver.apply(&BinChange::observed(pair, rho, clipped));
+            bins.remove(&pair);
+            assert_holds(&solver, &bins, &format!("clipped {pair}"));
+        }
+        let pair = PairIndex::from_index(424_242);
+        solver.apply(&BinChange::observed(pair, [0.9; 3], clipped));
+        assert_holds(&solver, &bins, "a clipped new bin");
+        let dark = [Bound::AtMost, Bound::Exact, Bound::Exact];
+        solver.apply(&BinChange::observed(pair, [0.9; 3], dark));
+        bins.insert(pair, ([0.9; 3], dark));
+        assert_holds(&solver, &bins, "an upper bound");
+    }
+
+    /// The posterior's covariance is α(N + αP₀)⁻¹ and its precision (N + αP₀)/α, at the α
+    /// the solver is set to.
+    #[test]
+    fn the_posterior_is_the_inverse_of_the_regularised_system() {
+        let basis = small_test_basis();
+        let bins = painted_bins(40);
+        let d = MODEL.rows(basis.components());
+        let e = expected(&MODEL, &basis, &bins);
+        let n = Mat::<f64>::from_fn(d, d, |i, j| e.normal[i * d + j]);
+        let p0 = closed_form_precision(&MODEL, &basis);
+        let mut solver = solver_with(MODEL, Regularization::Auto, &bins);
+        assert_eq!(solver.regularization(), Regularization::Auto);
+        let alpha = 0.3;
+        solver.set_regularization(Regularization::Prior { alpha });
+        assert_eq!(solver.regularization(), Regularization::Prior { alpha });
+        let m = &n + &p0 * alpha;
+        let covariance = m.partial_piv_lu().inverse() * alpha;
+        let posterior = solver.posterior();
+        assert_eq!(posterior.alpha(), alpha);
+        let flat = |a: &Mat<f64>| (0..d * d).map(|i| a[(i / d, i % d)]).collect::<Vec<f64>>();
+        let gap = relative_gap(&flat(posterior.covariance()), &flat(&covariance), 1e-300);
+        assert!(gap < 1e-9, "covariance off by {gap:e}");
+        let precision = &m * (1.0 / alpha);
+        let gap = relative_gap(&flat(posterior.precision()), &flat(&precision), 1e-300);
+        assert!(gap < 1e-12, "precision off by {gap:e}");
+    }
+
+    /// A one-shot refit fits, installs and (at margin −∞) takes the mean of the bins painted
+    /// now, after which no fit is due; asked again, it changes nothing.
+    #[test]
+    fn a_refit_installs_the_mean_of_the_bins_painted_now() {
+        let table = tabulate(&plastic(0.2));
+        let bins: BTreeMap<PairIndex, ([f64; 3], Bounds)> = (0..PAIRS)
+            .step_by(4_999)
+            .map(|p| {
+                (
+                    PairIndex::from_index(p),
+                    (table.pairs()[p].map(f64::from), EXACT),
+                )
+            })
+            .collect();
+        let mut solver = solver_with(fitted_model(f64::NEG_INFINITY), Regularization::Auto, &bins);
+        assert!(!solver.prior_mean_is_current());
+        solver.refit_prior_mean();
+        assert!(solver.prior_mean_is_current());
+        let reference = solver.reference().expect("taken at margin −∞").clone();
+        assert_holds_from(&solver, Some(&*reference), &bins, "refitted");
+        solver.refit_prior_mean();
+        assert!(Arc::ptr_eq(solver.reference().expect("kept"), &reference));
     }
 }

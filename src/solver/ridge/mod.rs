@@ -1409,22 +1409,28 @@ mod tests {
         }
     }
 
-    /// A start, or centring on the database's mean, puts the fitted reference aside and
-    /// re-measures every bin from the basis's mean; dropping the start takes the installed
-    /// reference back. Asking again for the kind the model has changes nothing, and a
-    /// change of kind drops the installed fit.
+    /// A start makes a fit needless while it is set. A start, or centring on the database's
+    /// mean, puts the fitted reference aside and re-measures every bin from the basis's mean;
+    /// dropping the start takes the installed reference back. Asking again for the kind the
+    /// model has changes nothing, and a change of kind drops the installed fit.
     #[test]
     fn a_start_or_another_mean_kind_re_measures_the_bins() {
         let [smooth, _] = references();
         let bins = plastic_bins();
         let always = fitted_model(f64::NEG_INFINITY);
         let mut solver = solver_with(always, Regularization::Auto, &bins);
+        let k = solver.basis().components();
+        // With a start set no fit is due, though none was ever installed.
+        assert!(!solver.prior_mean_is_current());
+        solver.set_prior_mean(Some(vec![[0.1, 0.2, 0.3]; k]));
+        assert!(solver.prior_mean_is_current() && solver.mean_fit_request().is_none());
+        solver.set_prior_mean(None);
+        assert!(!solver.prior_mean_is_current());
         let generation = solver.generation;
         assert!(solver.install_fitted_mean(FittedMean {
             generation,
             reference: smooth.clone(),
         }));
-        let k = solver.basis().components();
         solver.set_prior_mean(Some(vec![[0.1, 0.2, 0.3]; k]));
         assert!(solver.reference().is_none());
         assert_holds_from(&solver, None, &bins, "a start");

@@ -23,7 +23,7 @@ pub use model::{Coat, Haze, LambertMicrofacet, conductor_from_edge_tint};
 use super::prior::PriorModel;
 use super::sparse::{Bounds, EXACT};
 use crate::basis::{MAP_EPSILON, cos_weight};
-use crate::materials::models::schlick;
+use crate::materials::models::{cos_half_difference, schlick};
 use crate::table::{PairIndex, bin_centre, pair_directions, pair_multiplicity};
 use glam::DVec3;
 use levenberg::{ShapeFit, fit_shape, residuals};
@@ -65,7 +65,9 @@ pub struct FitOptions {
     /// than Schlick's) from the chosen fit, and keep it when its RMS log residual and its
     /// brightness-weighted one are both below Schlick's divided by this factor; `None`:
     /// Schlick's. Tried only where the chosen fit is a conductor's, its lobe's F0 above its
-    /// diffuse albedo in every channel.
+    /// diffuse albedo in every channel. Where the paint's θ_d spread over 10° or more
+    /// (several lights), the tint is seen rather than guessed and is kept wherever it fits
+    /// better.
     pub edge_margin: Option<f64>,
     /// Also fit a haze (a share of the lobe's reflectance over a second, isotropic lobe with
     /// the same Fresnel) beside the chosen lobe, and keep it when its RMS log residual and its
@@ -250,6 +252,14 @@ pub fn fit_lambert_microfacet_bounded(
         let tinted = fit_shape(&observations, &[start], shape, options);
         iterations += tinted.iterations;
         tried += 1;
+        // Views at θ_d far apart show the Fresnel's own curve, which the tint then follows
+        // wherever it fits better; one view shows one θ_d (give or take a bin), where the tint
+        // and F0 trade freely, so there it must earn its place by the margin.
+        let margin = if theta_d_spread(&observations) >= EDGE_SEEN_SPREAD_DEG {
+            margin.min(EDGE_MARGIN_SEEN)
+        } else {
+            margin
+        };
         if rms(tinted.cost) * margin < rms(best.cost)
             && weighted(&tinted) * margin < weighted(&best)
         {
@@ -262,6 +272,32 @@ pub fn fit_lambert_microfacet_bounded(
         starts: tried,
         iterations,
     }
+}
+
+/// How far apart (degrees, [`theta_d_spread`]) the paint's half-difference angles must lie
+/// for a lobe's Fresnel curve to be seen rather than guessed. One orthographic view under a
+/// directional light shows a single θ_d, which its bins spread over about 5°.
+const EDGE_SEEN_SPREAD_DEG: f64 = 10.0;
+
+/// The edge stage's margin where the paint spans [`EDGE_SEEN_SPREAD_DEG`]: a tint that fits
+/// better at all is kept.
+const EDGE_MARGIN_SEEN: f64 = 1.0;
+
+/// The spread of the observations' half-difference angles θ_d (degrees): the 5th to the 95th
+/// percentile over the bins.
+fn theta_d_spread(observations: &[Observation]) -> f64 {
+    let mut theta_d: Vec<f64> = observations
+        .iter()
+        .map(|o| {
+            cos_half_difference(o.l, o.v)
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
+        .collect();
+    theta_d.sort_by(f64::total_cmp);
+    let at = |q: f64| theta_d[((theta_d.len() - 1) as f64 * q).round() as usize];
+    at(0.95) - at(0.05)
 }
 
 /// Whether a fit's lobe outshines its diffuse in every channel, as a conductor's does: light
@@ -676,6 +712,31 @@ mod tests {
         // Measured: Schlick 0.087, the edge tint 0.0000 (gold's own η + iκ and α to 1e-12).
         assert!(tinted_error.relative_rmse < 0.005, "{tinted_error:?}");
         assert!(schlick_error.relative_rmse > 0.05, "{schlick_error:?}");
+    }
+
+    /// One view's bins spread over a few degrees of θ_d around its own; two views' over the
+    /// gap between theirs.
+    #[test]
+    fn the_spread_of_half_angles_tells_one_view_from_two() {
+        let spread = |ranges: &[std::ops::Range<f64>]| {
+            let observations: Vec<Observation> = pairs_at_half_differences(7, ranges)
+                .into_iter()
+                .map(|(_, l, v)| Observation {
+                    l,
+                    v,
+                    target: [0.0; 3],
+                    c: 1.0,
+                    sqrt_weight: 1.0,
+                    bounds: EXACT,
+                })
+                .collect();
+            theta_d_spread(&observations)
+        };
+        let one = spread(&[24.0..28.0]);
+        assert!((3.0..4.0).contains(&one), "{one}");
+        let two = spread(&[0.0..5.0, 43.0..47.0]);
+        assert!((40.0..47.0).contains(&two), "{two}");
+        assert!(one < EDGE_SEEN_SPREAD_DEG && two > EDGE_SEEN_SPREAD_DEG);
     }
 
     /// The fit of `bins` under `options`, and how far its table is from `truth`.

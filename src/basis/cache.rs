@@ -216,3 +216,165 @@ fn parse(path: &Path, map: memmap2::Mmap, expected_key: &str) -> Result<Basis> {
         offset,
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::build::{SMALL_TEST_SPEC, small_test_basis};
+
+    fn stored() -> (tempfile::TempDir, BasisCache) {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = BasisCache::at(dir.path().join("bases"));
+        cache.store(&SMALL_TEST_SPEC, &small_test_basis()).unwrap();
+        (dir, cache)
+    }
+
+    fn load_error(cache: &BasisCache, spec: &BasisSpec) -> String {
+        match cache.load(spec) {
+            Err(e) => e.to_string(),
+            Ok(b) => panic!("expected an error, got a basis: {}", b.is_some()),
+        }
+    }
+
+    /// The published FNV-1a 64 test vectors: file names must not change between builds.
+    #[test]
+    fn the_file_name_hash_is_fnv1a() {
+        assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn a_stored_basis_loads_back_bit_for_bit() {
+        let (_dir, cache) = stored();
+        let built = small_test_basis();
+        let path = cache.path_for(&SMALL_TEST_SPEC);
+        assert_eq!(path.parent(), Some(cache.dir()));
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(
+            name.starts_with("basis-k4-") && name.ends_with(".bin"),
+            "{name}"
+        );
+        let loaded = cache
+            .load(&SMALL_TEST_SPEC)
+            .unwrap()
+            .expect("the stored file");
+        assert_eq!(loaded.components(), built.components());
+        assert_eq!(loaded.observations(), built.observations());
+        assert_eq!(loaded.variances(), built.variances());
+        assert_eq!(
+            loaded.residual_variance().to_bits(),
+            built.residual_variance().to_bits()
+        );
+        assert!(
+            loaded
+                .raw()
+                .iter()
+                .zip(built.raw())
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+        assert_eq!(loaded.raw().len(), built.raw().len());
+        // The header holds the full key, so the file says what built it.
+        let bytes = std::fs::read(&path).unwrap();
+        let key = full_key(&SMALL_TEST_SPEC);
+        assert!(key.contains(&SMALL_TEST_SPEC.key()), "{key}");
+        assert_eq!(&bytes[KEY_OFFSET..KEY_OFFSET + key.len()], key.as_bytes());
+    }
+
+    #[test]
+    fn no_file_is_none_and_an_unreadable_one_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = BasisCache::at(dir.path().to_path_buf());
+        assert!(cache.load(&SMALL_TEST_SPEC).unwrap().is_none());
+        // A cache "folder" that is a file: opening inside it fails, and not as "not found".
+        let file = dir.path().join("not-a-folder");
+        std::fs::write(&file, b"x").unwrap();
+        let cache = BasisCache::at(file);
+        let error = load_error(&cache, &SMALL_TEST_SPEC);
+        let path = cache.path_for(&SMALL_TEST_SPEC);
+        assert!(error.contains(&path.display().to_string()), "{error}");
+    }
+
+    /// Every input of the spec names a file of its own, and a file of another spec at this
+    /// spec's path is refused.
+    #[test]
+    fn specs_differing_in_any_input_neither_share_nor_accept_a_file() {
+        let (_dir, cache) = stored();
+        let base = SMALL_TEST_SPEC;
+        let mut seed = base;
+        seed.database.seed += 1;
+        let mut size = base;
+        size.database.size += 1;
+        let others = [
+            seed,
+            size,
+            BasisSpec {
+                oversampling: base.oversampling + 1,
+                ..base
+            },
+            BasisSpec {
+                power_iterations: base.power_iterations + 1,
+                ..base
+            },
+        ];
+        let path = cache.path_for(&base);
+        for other in others {
+            assert_ne!(cache.path_for(&other), path, "{other:?}");
+            assert!(cache.load(&other).unwrap().is_none(), "{other:?}");
+            std::fs::copy(&path, cache.path_for(&other)).unwrap();
+            let error = load_error(&cache, &other);
+            assert!(error.contains("stale"), "{other:?}: {error}");
+            std::fs::remove_file(cache.path_for(&other)).unwrap();
+        }
+    }
+
+    /// Damaged headers are errors that name the file and the problem, never a panic or an
+    /// out-of-bounds read.
+    #[test]
+    fn a_damaged_header_is_an_error_not_a_panic() {
+        let (_dir, cache) = stored();
+        let path = cache.path_for(&SMALL_TEST_SPEC);
+        let pristine = std::fs::read(&path).unwrap();
+        type Damage = fn(&mut Vec<u8>);
+        let damages: [(&str, Damage, &str); 6] = [
+            ("short", |b| b.truncate(100), "header needs 256"),
+            (
+                "header only",
+                |b| b.truncate(HEADER_LEN),
+                "truncated or corrupt",
+            ),
+            ("magic", |b| b[0] = b'X', "bad magic"),
+            ("format", |b| b[8] += 1, "stale basis cache: format"),
+            (
+                "key length",
+                |b| b[20..24].copy_from_slice(&u32::MAX.to_le_bytes()),
+                "built from other inputs",
+            ),
+            (
+                "components",
+                |b| b[12..16].copy_from_slice(&0u32.to_le_bytes()),
+                "0 components",
+            ),
+        ];
+        for (what, damage, expected) in damages {
+            let mut bytes = pristine.clone();
+            damage(&mut bytes);
+            std::fs::write(&path, &bytes).unwrap();
+            let error = load_error(&cache, &SMALL_TEST_SPEC);
+            assert!(error.contains(expected), "{what}: {error}");
+            assert!(
+                error.contains(&path.display().to_string()),
+                "{what}: {error}"
+            );
+        }
+        // The header-only file says how long the file should be.
+        let mut bytes = pristine.clone();
+        bytes.truncate(HEADER_LEN);
+        std::fs::write(&path, &bytes).unwrap();
+        let error = load_error(&cache, &SMALL_TEST_SPEC);
+        assert!(
+            error.contains(&format!("expected {}", pristine.len())),
+            "{error}"
+        );
+    }
+}

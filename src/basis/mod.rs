@@ -271,8 +271,110 @@ mod tests {
         assert_eq!(unmap_value(-50.0, 0.5, 0.1), 0.0);
     }
 
+    /// A basis whose stored value at index i is i: every array reads its own slice.
+    fn numbered(components: usize) -> Basis {
+        let data: Vec<f32> = (0..Basis::stored_len(components))
+            .map(|i| i as f32)
+            .collect();
+        Basis::from_owned(components, 7, vec![3.0, 2.0], 0.5, data)
+    }
+
+    #[test]
+    fn each_array_is_its_slice_of_the_stored_values() {
+        let basis = numbered(2);
+        assert_eq!(Basis::stored_len(2), 7 * PAIRS);
+        assert_eq!(basis.raw().len(), 7 * PAIRS);
+        assert_eq!(basis.components(), 2);
+        assert_eq!(basis.observations(), 7);
+        assert_eq!(basis.variances(), &[3.0, 2.0]);
+        assert_eq!(basis.residual_variance(), 0.5);
+        let arrays: [(&str, &[f32], usize); 5] = [
+            ("references", basis.references(), 0),
+            ("means", basis.means(), 1),
+            ("lowers", basis.lowers(), 2),
+            ("uppers", basis.uppers(), 3),
+            ("residuals", basis.residuals(), 4),
+        ];
+        for (name, array, slot) in arrays {
+            assert_eq!(array.len(), PAIRS, "{name}");
+            for p in [0, 1, PAIRS / 3, PAIRS - 1] {
+                assert_eq!(array[p], (slot * PAIRS + p) as f32, "{name}[{p}]");
+            }
+        }
+        assert_eq!(basis.rows().len(), 2 * PAIRS);
+        assert_eq!(basis.rows()[0], (5 * PAIRS) as f32);
+        for p in [0, 1, 777, PAIRS - 1] {
+            let pair = PairIndex::from_index(p);
+            let first = (5 * PAIRS + 2 * p) as f32;
+            assert_eq!(basis.row(pair), &[first, first + 1.0], "pair {p}");
+        }
+    }
+
+    /// A pair's reference, mean and range, with every other value 0.
+    fn one_pair_basis(pair: PairIndex, reference: f32, mean: f32, range: (f32, f32)) -> Basis {
+        let mut data = vec![0.0f32; Basis::stored_len(1)];
+        let p = pair.index();
+        data[REFERENCE + p] = reference;
+        data[MEAN + p] = mean;
+        data[LOWER + p] = range.0;
+        data[UPPER + p] = range.1;
+        Basis::from_owned(1, 1, vec![1.0], 1.0, data)
+    }
+
+    /// The centred value written out: ln((ρc + ε)/(reference + ε)) less the offset, clamped
+    /// to the range widened by the margin, less the mean.
+    #[test]
+    fn a_centred_value_is_its_map_clamped_to_the_range_less_the_mean() {
+        let pair = crate::table::pair_index(36 * 20 + 3, 36 * 30 + 17);
+        let c = cos_weight(pair);
+        let (t_l, t_v) = (20, 30);
+        assert_eq!(c, theta_centre(t_l).cos() * theta_centre(t_v).cos());
+        let (reference, mean, lower, upper) = (0.2f32, 0.3f32, -1.0f32, 2.0f32);
+        let basis = one_pair_basis(pair, reference, mean, (lower, upper));
+        let (lo, hi) = ((lower - RANGE_MARGIN) as f64, (upper + RANGE_MARGIN) as f64);
+        assert_eq!(basis.mapped_range(pair), (lo, hi));
+        assert_eq!((lo, hi), (-1.25, 2.25));
+        let mapped = |rho: f64| ((rho * c + MAP_EPSILON) / (reference as f64 + MAP_EPSILON)).ln();
+        for rho in [0.0, 0.05, 0.4, 1.5, 40.0] {
+            for offset in [0.0, 0.7, -0.9] {
+                let expected = (mapped(rho) - offset).clamp(lo, hi) - mean as f64;
+                let got = basis.centred_residual(pair, rho, offset);
+                assert!((got - expected).abs() < 1e-12, "ρ {rho} offset {offset}");
+            }
+            let unclamped = mapped(rho) - mean as f64;
+            assert!((basis.mapped_from_mean(pair, rho) - unclamped).abs() < 1e-12);
+            assert_eq!(
+                basis.centred_observation(pair, rho),
+                basis.centred_residual(pair, rho, 0.0)
+            );
+        }
+        // Both clamps are reached: black below the range, 40 above it.
+        assert_eq!(basis.centred_observation(pair, 0.0), lo - mean as f64);
+        assert_eq!(basis.centred_observation(pair, 40.0), hi - mean as f64);
+    }
+
+    #[test]
+    fn the_map_is_the_log_of_the_weighted_value_over_the_reference() {
+        let expected = ((2.0 * 0.5 + MAP_EPSILON) / (0.3 + MAP_EPSILON)).ln();
+        assert!((map_value(2.0, 0.5, 0.3) - expected).abs() < 1e-15);
+        // Negative paint counts as black.
+        assert_eq!(map_value(-1.0, 0.5, 0.3), map_value(0.0, 0.5, 0.3));
+        let back = (0.4f64.exp() * (0.3 + MAP_EPSILON) - MAP_EPSILON) / 0.5;
+        assert!((unmap_value(0.4, 0.5, 0.3) - back).abs() < 1e-15);
+    }
+
     #[test]
     fn cos_weight_is_clamped() {
+        for (t_l, t_v) in [(0, 0), (10, 30), (44, 3), (30, 40)] {
+            let product = theta_centre(t_l).cos() * theta_centre(t_v).cos();
+            assert_eq!(
+                cos_weight_polar(t_l, t_v),
+                product.clamp(MAP_COS_FLOOR, 1.0),
+                "{t_l} {t_v}"
+            );
+        }
+        assert!(theta_centre(44).cos() * theta_centre(44).cos() < MAP_COS_FLOOR);
+        assert_eq!(cos_weight_polar(44, 44), MAP_COS_FLOOR);
         let first = PairIndex::from_index(0);
         assert!((cos_weight(first) - theta_centre(0).cos().powi(2)).abs() < 1e-12);
         let last = PairIndex::from_index(crate::table::PAIRS - 1);

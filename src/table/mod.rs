@@ -76,3 +76,63 @@ impl SymTable {
             .all(|rgb| rgb.iter().all(|c| c.is_finite() && *c >= 0.0))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_value_serves_both_orders_of_a_pair() {
+        let mut table = SymTable::filled([0.1, 0.2, 0.3]);
+        assert_eq!(table.pairs().len(), PAIRS);
+        assert!(table.pairs().iter().all(|v| *v == [0.1, 0.2, 0.3]));
+        table.set(1200, 7, [1.0, 2.0, 3.0]);
+        assert_eq!(table.get(1200, 7), [1.0, 2.0, 3.0]);
+        assert_eq!(table.get(7, 1200), [1.0, 2.0, 3.0]);
+        assert_eq!(table.pairs()[pair_index(7, 1200).index()], [1.0, 2.0, 3.0]);
+        // Nothing else moved.
+        let changed = table
+            .pairs()
+            .iter()
+            .filter(|v| **v != [0.1, 0.2, 0.3])
+            .count();
+        assert_eq!(changed, 1);
+        assert_eq!(table.get(7, 1201), [0.1, 0.2, 0.3]);
+    }
+
+    #[test]
+    fn a_table_is_built_from_exactly_one_value_per_pair() {
+        assert!(SymTable::from_pairs(vec![[0.0; 3]; PAIRS - 1]).is_none());
+        assert!(SymTable::from_pairs(vec![[0.0; 3]; PAIRS + 1]).is_none());
+        let values: Vec<Rgb> = (0..PAIRS).map(|p| [p as f32, 0.0, 1.0]).collect();
+        let table = SymTable::from_pairs(values.clone()).unwrap();
+        assert_eq!(table.pairs(), &values[..]);
+        // from_fn is asked once per pair, the lower direction first.
+        let built = SymTable::from_fn(|lo, hi| {
+            assert!(lo <= hi);
+            [lo as f32, hi as f32, 0.0]
+        });
+        for (d_l, d_v) in [(0, 0), (3, 1619), (1619, 3), (800, 801)] {
+            let (lo, hi) = (d_l.min(d_v), d_l.max(d_v));
+            assert_eq!(built.get(d_l, d_v), [lo as f32, hi as f32, 0.0]);
+        }
+        assert_eq!(
+            format!("{built:?}"),
+            format!("SymTable {{ pairs: {PAIRS} }}")
+        );
+    }
+
+    #[test]
+    fn a_table_is_physical_only_when_every_channel_is_finite_and_non_negative() {
+        assert!(SymTable::filled([0.0; 3]).is_physical());
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1e-30] {
+            for channel in 0..3 {
+                let mut table = SymTable::filled([0.5; 3]);
+                let mut value = [0.5; 3];
+                value[channel] = bad;
+                table.set(100, 900, value);
+                assert!(!table.is_physical(), "{bad} in channel {channel}");
+            }
+        }
+    }
+}

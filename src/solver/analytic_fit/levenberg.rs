@@ -272,3 +272,314 @@ pub(super) fn levenberg_marquardt(
     }
     (theta, current, iterations)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::model::{Coat, Haze};
+    use super::super::params::{P_ONE, params_of};
+    use super::*;
+    use crate::basis::cos_weight;
+    use crate::materials::Brdf;
+    use crate::materials::models::Distribution;
+    use crate::solver::sparse::{Bounds, EXACT};
+    use crate::table::{PAIRS, PairIndex, bin_centre, pair_directions};
+
+    const PLASTIC: LambertMicrofacet = LambertMicrofacet {
+        albedo: [0.3, 0.2, 0.6],
+        f0: [0.05, 0.04, 0.06],
+        distribution: Distribution::Ggx,
+        alpha_x: 0.15,
+        alpha_y: 0.3,
+        rotation: 0.4,
+        specular: 0.8,
+        coat: None,
+        haze: None,
+        edge: None,
+    };
+
+    /// Every shape the fit tries, each with a model of its own.
+    fn shapes() -> Vec<(Shape, LambertMicrofacet)> {
+        let metal = LambertMicrofacet {
+            albedo: [0.01; 3],
+            f0: [0.9, 0.6, 0.3],
+            specular: 1.0,
+            ..PLASTIC
+        };
+        let haze = Haze {
+            distribution: Distribution::Beckmann,
+            share: 0.3,
+            alpha: 0.4,
+        };
+        let coat = Coat {
+            f0: [0.04; 3],
+            alpha: 0.05,
+        };
+        let shape = |distribution| Shape::one_lobe(distribution);
+        vec![
+            (shape(Distribution::Ggx), PLASTIC),
+            (
+                shape(Distribution::Beckmann),
+                LambertMicrofacet {
+                    distribution: Distribution::Beckmann,
+                    ..PLASTIC
+                },
+            ),
+            (
+                Shape {
+                    two_lobes: true,
+                    ..shape(Distribution::Ggx)
+                },
+                LambertMicrofacet {
+                    coat: Some(coat),
+                    ..PLASTIC
+                },
+            ),
+            (
+                Shape {
+                    haze: Some(Distribution::Beckmann),
+                    ..shape(Distribution::Ggx)
+                },
+                LambertMicrofacet {
+                    haze: Some(haze),
+                    ..metal
+                },
+            ),
+            (
+                Shape {
+                    edge: true,
+                    ..shape(Distribution::Ggx)
+                },
+                LambertMicrofacet {
+                    edge: Some([0.3, 0.6, 0.9]),
+                    ..metal
+                },
+            ),
+        ]
+    }
+
+    /// Bins of `model` spread over the table, each a few percent off it (so the residuals are
+    /// not zero), with weights that differ.
+    fn observations_of(model: &LambertMicrofacet, bounds: Bounds) -> Vec<Observation> {
+        (0..PAIRS)
+            .step_by(1013)
+            .map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                let (l, v) = (bin_centre(lo), bin_centre(hi));
+                let c = cos_weight(pair);
+                let wobble = 1.0 + 0.05 * ((p % 7) as f64 - 3.0) / 3.0;
+                Observation {
+                    l,
+                    v,
+                    target: model
+                        .eval(l, v)
+                        .map(|r| (r * wobble * c + MAP_EPSILON).ln()),
+                    c,
+                    sqrt_weight: 1.0 + (p % 3) as f64,
+                    bounds,
+                }
+            })
+            .collect()
+    }
+
+    /// The residuals written out from the model's own `eval`.
+    fn plain_residuals(model: &LambertMicrofacet, o: &Observation) -> [f64; 3] {
+        let rho = model.eval(o.l, o.v);
+        std::array::from_fn(|ch| {
+            let r = (rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch];
+            o.sqrt_weight * r
+        })
+    }
+
+    /// JᵀJ, Jᵀr and ½‖r‖² against a forward-difference Jacobian taken through the model's
+    /// `eval` one parameter at a time, for every shape.
+    #[test]
+    fn the_normal_equations_are_those_of_the_models_own_jacobian() {
+        for (shape, model) in shapes() {
+            let theta = params_of(&model);
+            let observations = observations_of(&model, EXACT);
+            let (active, n) = shape.active();
+            let base = model_of(&theta, shape);
+            let r0: Vec<[f64; 3]> = observations
+                .iter()
+                .map(|o| plain_residuals(&base, o))
+                .collect();
+            let columns: Vec<Vec<[f64; 3]>> = active[..n]
+                .iter()
+                .map(|&i| {
+                    let mut t = theta;
+                    t[i] += 1e-6 * theta[i].abs().max(1.0);
+                    let h = t[i] - theta[i];
+                    let moved = model_of(&t, shape);
+                    observations
+                        .iter()
+                        .zip(&r0)
+                        .map(|(o, r)| {
+                            let rp = plain_residuals(&moved, o);
+                            std::array::from_fn(|ch| (rp[ch] - r[ch]) / h)
+                        })
+                        .collect()
+                })
+                .collect();
+            let (jtj, jtr, half) = normal_equations(&observations, &theta, shape);
+            let expected_half = 0.5 * r0.iter().flat_map(|r| r.iter().map(|x| x * x)).sum::<f64>();
+            let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-7 * scale;
+            assert!(close(half, expected_half, expected_half), "{shape:?}");
+            assert!(close(cost(&observations, &theta, shape), half, half));
+            let dot = |a: &[[f64; 3]], b: &[[f64; 3]]| -> f64 {
+                a.iter()
+                    .zip(b)
+                    .map(|(x, y)| x[0] * y[0] + x[1] * y[1] + x[2] * y[2])
+                    .sum()
+            };
+            for a in 0..n {
+                let gradient = dot(&columns[a], &r0);
+                let scale = (dot(&columns[a], &columns[a]) * 2.0 * expected_half).sqrt();
+                assert!(close(jtr[a], gradient, scale), "{shape:?} Jᵀr[{a}]");
+                for b in 0..n {
+                    let product = dot(&columns[a], &columns[b]);
+                    let scale = (dot(&columns[a], &columns[a]) * dot(&columns[b], &columns[b]))
+                        .sqrt()
+                        .max(1e-300);
+                    assert!(
+                        close(jtj[a * P + b], product, scale),
+                        "{shape:?} JᵀJ[{a}][{b}]"
+                    );
+                }
+            }
+            // Nothing outside the active parameters.
+            assert!(jtr[n..].iter().all(|v| *v == 0.0), "{shape:?}");
+            assert!(jtj[n * P..].iter().all(|v| *v == 0.0), "{shape:?}");
+        }
+    }
+
+    /// A bounded channel counts only on the side its bound forbids, scaled by its weight.
+    #[test]
+    fn a_bound_counts_only_when_the_model_crosses_it() {
+        let o = |bound| Observation {
+            l: bin_centre(100),
+            v: bin_centre(900),
+            target: [0.5f64.ln(); 3],
+            c: 0.5,
+            sqrt_weight: 3.0,
+            bounds: [bound; 3],
+        };
+        // ρc + ε above and below the target 0.5.
+        let above_target = (0.8 - MAP_EPSILON) / 0.5;
+        let below_target = (0.2 - MAP_EPSILON) / 0.5;
+        let up = 3.0 * (0.8f64 / 0.5).ln();
+        let down = 3.0 * (0.2f64 / 0.5).ln();
+        let cases = [
+            (Bound::Exact, up, down),
+            (Bound::AtLeast, 0.0, down),
+            (Bound::AtMost, up, 0.0),
+        ];
+        for (bound, above_r, below_r) in cases {
+            let r_above = residuals_of([above_target; 3], &o(bound));
+            let r_below = residuals_of([below_target; 3], &o(bound));
+            for ch in 0..3 {
+                assert!((r_above[ch] - above_r).abs() < 1e-12, "{bound:?} above");
+                assert!((r_below[ch] - below_r).abs() < 1e-12, "{bound:?} below");
+            }
+        }
+    }
+
+    /// The step solves the damped system written out, and refuses one that is not positive
+    /// definite.
+    #[test]
+    fn a_damped_step_solves_the_damped_normal_equations() {
+        let n = 4;
+        let mut jtj = [0.0; P * P];
+        let j = [
+            [1.0, 0.2, 0.0, 0.3],
+            [0.5, 2.0, 0.1, 0.0],
+            [0.0, 0.4, 1.5, 0.2],
+            [0.3, 0.0, 0.6, 0.9],
+            [0.2, 0.1, 0.3, 0.4],
+        ];
+        for a in 0..n {
+            for b in 0..n {
+                jtj[a * P + b] = j.iter().map(|row| row[a] * row[b]).sum();
+            }
+        }
+        let mut jtr = [0.0; P];
+        jtr[..n].copy_from_slice(&[0.3, -1.0, 0.5, 2.0]);
+        let lambda = 0.7;
+        let step = damped_step(&jtj, &jtr, lambda, n).unwrap();
+        for a in 0..n {
+            let row: f64 = (0..n)
+                .map(|b| {
+                    let damping = if a == b { lambda * jtj[a * P + a] } else { 0.0 };
+                    (jtj[a * P + b] + damping) * step[b]
+                })
+                .sum();
+            assert!((row + jtr[a]).abs() < 1e-12, "row {a}: {row}");
+        }
+        assert!(step[n..].iter().all(|v| *v == 0.0));
+        let mut negative = [0.0; P * P];
+        for a in 0..n {
+            negative[a * P + a] = -1.0;
+        }
+        assert!(damped_step(&negative, &jtr, 0.0, n).is_none());
+    }
+
+    /// From a start away from it, LM returns to a model its bins fit exactly, never raising
+    /// the cost, and stops at its iteration limit.
+    #[test]
+    fn levenberg_marquardt_finds_the_model_its_bins_came_from() {
+        let shape = Shape::one_lobe(Distribution::Ggx);
+        let truth = params_of(&PLASTIC);
+        let observations: Vec<Observation> = observations_of(&PLASTIC, EXACT)
+            .into_iter()
+            .map(|mut o| {
+                o.target = PLASTIC.eval(o.l, o.v).map(|r| (r * o.c + MAP_EPSILON).ln());
+                o
+            })
+            .collect();
+        let mut start = truth;
+        for (i, value) in start.iter_mut().enumerate().take(P_ONE) {
+            *value += if i % 2 == 0 { 0.3 } else { -0.25 };
+        }
+        let start_cost = cost(&observations, &start, shape);
+        let (unmoved, unmoved_cost, none) = levenberg_marquardt(&observations, start, shape, 0);
+        assert_eq!((unmoved, none), (start, 0));
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+        assert!(same(unmoved_cost, start_cost));
+        let (one, one_cost, first) = levenberg_marquardt(&observations, start, shape, 1);
+        assert_eq!(first, 1);
+        assert!(one_cost < start_cost && one != start);
+        let (theta, final_cost, iterations) = levenberg_marquardt(&observations, start, shape, 200);
+        assert!(iterations > 1 && iterations <= 200);
+        assert!(final_cost <= one_cost);
+        assert!(
+            final_cost < 1e-12 * start_cost,
+            "{final_cost} from {start_cost}"
+        );
+        assert!(same(final_cost, cost(&observations, &theta, shape)));
+        let fitted = model_of(&theta, shape);
+        for c in 0..3 {
+            assert!(
+                (fitted.albedo[c] - PLASTIC.albedo[c]).abs() < 1e-4,
+                "{fitted:?}"
+            );
+        }
+        assert!(
+            (fitted.alpha_x - PLASTIC.alpha_x).abs() < 1e-4,
+            "{fitted:?}"
+        );
+        assert!(
+            (fitted.alpha_y - PLASTIC.alpha_y).abs() < 1e-4,
+            "{fitted:?}"
+        );
+        // A fit of several starts keeps the best, whichever order they come in.
+        let far = [0.0; P];
+        let options = FitOptions::default();
+        for starts in [[far, start], [start, far]] {
+            let fit = fit_shape(&observations, &starts, shape, &options);
+            assert!(fit.cost < 1e-12 * start_cost, "{}", fit.cost);
+            assert!(same(fit.cost, cost(&observations, &fit.theta, shape)));
+            assert_eq!(fit.shape, shape);
+            assert!(fit.iterations >= 2);
+        }
+    }
+}

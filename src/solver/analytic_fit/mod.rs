@@ -972,4 +972,289 @@ mod tests {
             );
         }
     }
+
+    /// A conductor's lobe outshines its diffuse in every channel; a metal's diffuse is at
+    /// most a tenth of its lobe's F0.
+    #[test]
+    fn conductors_and_metals_are_told_by_their_diffuse() {
+        let lobe = LambertMicrofacet {
+            albedo: [0.4, 0.25, 0.125],
+            f0: [0.8, 0.5, 0.25],
+            specular: 0.5,
+            ..MIXED
+        };
+        assert!(
+            conductor_like(&lobe),
+            "diffuse equal to the lobe's F0 in every channel"
+        );
+        assert!(!metal_like(&lobe));
+        for c in 0..3 {
+            let mut brighter = lobe;
+            brighter.albedo[c] *= 1.001;
+            assert!(!conductor_like(&brighter), "channel {c}");
+        }
+        let metal = LambertMicrofacet {
+            albedo: [0.04, 0.025, 0.0125],
+            ..lobe
+        };
+        assert!(metal_like(&metal) && conductor_like(&metal));
+        for c in 0..3 {
+            let mut hazier = metal;
+            hazier.albedo[c] *= 1.001;
+            assert!(!metal_like(&hazier), "channel {c}");
+        }
+    }
+
+    fn lobe_alpha(model: &LambertMicrofacet) -> f64 {
+        (model.alpha_x * model.alpha_y).sqrt()
+    }
+
+    #[test]
+    fn coat_starts_bracket_the_lobe_at_a_dielectrics_f0() {
+        let first = LambertMicrofacet {
+            alpha_x: 0.1,
+            alpha_y: 0.4,
+            ..MIXED
+        };
+        let theta = params_of(&first);
+        let shape = Shape {
+            two_lobes: true,
+            ..Shape::one_lobe(Distribution::Ggx)
+        };
+        let starts = coat_starts(&theta);
+        assert_eq!(starts.len(), 4);
+        let mut seen = Vec::new();
+        for start in &starts {
+            assert_eq!(start[..P_ONE], theta[..P_ONE]);
+            let coat = model_of(start, shape).coat.unwrap();
+            seen.push(((coat.f0[0] * 100.0).round() as i32, coat.alpha));
+        }
+        let alpha = lobe_alpha(&first);
+        for f0 in [3, 6] {
+            for second in [alpha / 4.0, alpha * 4.0] {
+                assert!(
+                    seen.iter()
+                        .any(|&(f, a)| f == f0 && (a - second).abs() < 1e-9),
+                    "F0 0.0{f0}, α {second}: {seen:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn haze_starts_split_the_lobe_into_a_sharper_one_and_a_glow() {
+        let first = LambertMicrofacet {
+            alpha_x: 0.1,
+            alpha_y: 0.2,
+            ..MIXED
+        };
+        let theta = params_of(&first);
+        let shape = Shape {
+            haze: Some(Distribution::Beckmann),
+            ..Shape::one_lobe(Distribution::Ggx)
+        };
+        let starts = haze_starts(&theta);
+        assert_eq!(starts.len(), 4);
+        let alpha = lobe_alpha(&first);
+        let mut seen = Vec::new();
+        for start in &starts {
+            assert_eq!(start[..6], theta[..6]);
+            assert_eq!(start[8..P_ONE], theta[8..P_ONE]);
+            let model = model_of(start, shape);
+            let haze = model.haze.unwrap();
+            let sharper = model.alpha_x / first.alpha_x;
+            assert!((model.alpha_y / first.alpha_y - sharper).abs() < 1e-9);
+            seen.push((sharper, haze.alpha / alpha, haze.share));
+        }
+        for (sharper, broader) in [(0.3, 2.5), (0.5, 4.0)] {
+            for share in [0.3, 0.5] {
+                assert!(
+                    seen.iter().any(|&(s, b, h)| (s - sharper).abs() < 1e-9
+                        && (b - broader).abs() < 1e-9
+                        && (h - share).abs() < 1e-9),
+                    "{sharper} {broader} {share}: {seen:?}"
+                );
+            }
+        }
+    }
+
+    /// The edge tint starts, per channel, where the conductor's Fresnel is nearest to the
+    /// Schlick fit's over the incidence angles, among the tints a step of the grid apart.
+    #[test]
+    fn an_edge_start_is_the_conductor_nearest_to_schlicks_curve() {
+        use crate::materials::models::fresnel_conductor;
+        let metal = LambertMicrofacet {
+            albedo: [0.01; 3],
+            f0: [0.95, 0.6, 0.2],
+            specular: 1.0,
+            ..MIXED
+        };
+        let shape = Shape::one_lobe(Distribution::Ggx);
+        let theta = params_of(&metal);
+        let start = edge_start(&theta, shape);
+        assert_eq!(start[..EDGE], theta[..EDGE]);
+        let tinted = model_of(
+            &start,
+            Shape {
+                edge: true,
+                ..shape
+            },
+        );
+        let tints = tinted.edge.unwrap();
+        for c in 0..3 {
+            let f0 = metal.f0[c];
+            let distance = |g: f64| -> f64 {
+                let (eta, k) = conductor_from_edge_tint(f0, g);
+                (0..=64)
+                    .map(|i| {
+                        let cos = i as f64 / 64.0;
+                        (fresnel_conductor(cos, eta, k) - schlick(f0, cos)).powi(2)
+                    })
+                    .sum()
+            };
+            let least = params::least_edge_tint(f0);
+            let chosen = distance(tints[c]);
+            for u in [0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95] {
+                let other = least + (1.0 - least) * u;
+                if (other - tints[c]).abs() > 0.03 {
+                    assert!(
+                        chosen <= distance(other),
+                        "channel {c}: tint {} ({chosen}) against {other} ({})",
+                        tints[c],
+                        distance(other)
+                    );
+                }
+            }
+        }
+    }
+
+    /// The brightness-weighted RMS written out: each bin's log residuals weighted by
+    /// ((L + κ L̄)/((1 + κ) L̄))^β, over the weights of its three channels.
+    #[test]
+    fn the_brightness_weighted_rms_weighs_bright_bins_as_the_prior_does() {
+        let (kappa, beta) = (
+            PriorModel::CALIBRATED.brightness_floor,
+            PriorModel::CALIBRATED.brightness_exponent,
+        );
+        let truth = MIXED;
+        let fitted = LambertMicrofacet {
+            alpha_x: 0.05,
+            ..MIXED
+        };
+        let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..crate::table::PAIRS)
+            .step_by(2311)
+            .map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                (pair, truth.eval(bin_centre(lo), bin_centre(hi)), EXACT)
+            })
+            .collect();
+        let observations: Vec<Observation> = bins
+            .iter()
+            .map(|&(pair, rho, bounds)| {
+                let (lo, hi) = pair_directions(pair);
+                let c = cos_weight(pair);
+                Observation {
+                    l: bin_centre(lo),
+                    v: bin_centre(hi),
+                    target: rho.map(|r| (r * c + MAP_EPSILON).ln()),
+                    c,
+                    sqrt_weight: pair_multiplicity(pair).sqrt(),
+                    bounds,
+                }
+            })
+            .collect();
+        let luminance = |o: &Observation| {
+            let v = o.target.map(|t| (t.exp() - MAP_EPSILON).max(0.0));
+            0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
+        };
+        let mean = observations.iter().map(luminance).sum::<f64>() / observations.len() as f64;
+        let (mut sum, mut weights) = (0.0, 0.0);
+        for o in &observations {
+            let w = ((luminance(o) + kappa * mean) / ((1.0 + kappa) * mean)).powf(beta);
+            let rho = fitted.eval(o.l, o.v);
+            for ch in 0..3 {
+                let r = o.sqrt_weight * ((rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch]);
+                sum += w * r * r;
+                weights += w * o.sqrt_weight * o.sqrt_weight;
+            }
+        }
+        let expected = (sum / weights).sqrt();
+        let got = brightness_weighted_rms(&observations, &fitted);
+        assert!(expected > 0.01, "the models differ: {expected}");
+        assert!(
+            (got - expected).abs() < 1e-12 * expected,
+            "{got} against {expected}"
+        );
+        assert_eq!(brightness_weighted_rms(&observations, &truth), 0.0);
+        // Bins of one brightness weigh alike: the plain RMS.
+        let black: Vec<Observation> = observations
+            .iter()
+            .map(|o| Observation {
+                target: [MAP_EPSILON.ln(); 3],
+                ..*o
+            })
+            .collect();
+        let (mut sum, mut weights) = (0.0, 0.0);
+        for o in &black {
+            let rho = fitted.eval(o.l, o.v);
+            for ch in 0..3 {
+                let r = o.sqrt_weight * ((rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch]);
+                sum += r * r;
+                weights += o.sqrt_weight * o.sqrt_weight;
+            }
+        }
+        let plain = (sum / weights).sqrt();
+        let got = brightness_weighted_rms(&black, &fitted);
+        assert!((got - plain).abs() < 1e-9 * plain, "{got} against {plain}");
+        // No bins, no residual.
+        assert_eq!(brightness_weighted_rms(&[], &fitted), 0.0);
+    }
+
+    /// Starts: the albedo from the darker fifth of the bins (less for the metal starts), a
+    /// dielectric's and a metal's F0 at four roughnesses, two faint lobes and four turned
+    /// anisotropic ones.
+    #[test]
+    fn starting_points_take_the_albedo_from_the_darker_bins() {
+        let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..10)
+            .map(|i| {
+                let v = (i + 1) as f64 * 0.01;
+                (PairIndex::from_index(i), [v, 2.0 * v, 100.0 * v], EXACT)
+            })
+            .collect();
+        let starts = starting_points(&bins);
+        assert_eq!(starts.len(), 14);
+        // The 20th percentile of ρπ: the third darkest of ten, clamped to [0.01, 0.95].
+        let pi = std::f64::consts::PI;
+        let expected = [0.03 * pi, 0.06 * pi, 0.95];
+        let shape = Shape::one_lobe(Distribution::Ggx);
+        let models: Vec<LambertMicrofacet> = starts.iter().map(|s| model_of(s, shape)).collect();
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-5;
+        let mut metals = 0;
+        for model in &models {
+            let scale = if model.f0[0] > 0.5 { 0.2 } else { 1.0 };
+            metals += usize::from(scale < 1.0);
+            for c in 0..3 {
+                assert!(
+                    close(model.albedo[c], (scale * expected[c]).max(0.01)),
+                    "{model:?}"
+                );
+            }
+        }
+        assert_eq!(metals, 4);
+        let faint = models.iter().filter(|m| m.specular < 0.05).count();
+        assert_eq!(faint, 2);
+        let turned: Vec<f64> = models
+            .iter()
+            .filter(|m| (m.alpha_y - 0.3).abs() < 1e-6 && (m.alpha_x - 0.05).abs() < 1e-6)
+            .map(|m| m.rotation)
+            .collect();
+        assert_eq!(turned.len(), 4);
+        for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
+            assert!(turned.iter().any(|r| close(*r, rotation)), "{turned:?}");
+        }
+        // No bins: a mid-grey albedo.
+        let empty = starting_points(&[]);
+        assert!(close(model_of(&empty[0], shape).albedo[0], 0.5));
+    }
 }

@@ -1257,4 +1257,56 @@ mod tests {
         let empty = starting_points(&[]);
         assert!(close(model_of(&empty[0], shape).albedo[0], 0.5));
     }
+
+    /// A coat is its own lobe over the first: Lambert, the first lobe and the library's
+    /// isotropic lobe of the coat's roughness with Schlick's Fresnel of its F0, summed.
+    #[test]
+    fn a_coat_adds_its_own_lobe_over_the_first() {
+        let coated = LambertMicrofacet {
+            coat: Some(Coat {
+                f0: [0.05; 3],
+                alpha: 0.04,
+            }),
+            ..MIXED
+        };
+        let (diffuse, lobe) = coated.parts();
+        let coat =
+            Microfacet::isotropic(Distribution::Ggx, 0.04, Fresnel::Schlick { f0: [0.05; 3] });
+        use crate::table::PAIRS;
+        for p in (0..PAIRS).step_by(997) {
+            let (lo, hi) = pair_directions(PairIndex::from_index(p));
+            let (l, v) = (bin_centre(lo), bin_centre(hi));
+            let (d, s, t) = (diffuse.eval(l, v), lobe.eval(l, v), coat.eval(l, v));
+            let got = coated.eval(l, v);
+            for c in 0..3 {
+                let want = d[c] + s[c] + t[c];
+                assert!(
+                    (got[c] - want).abs() <= 1e-12 * want.abs().max(1.0),
+                    "{l} {v}: {got:?} against {want}"
+                );
+            }
+        }
+        // Round trip through the parameters, and the coat's F0 held to a dielectric's.
+        let shape = Shape {
+            two_lobes: true,
+            ..Shape::one_lobe(Distribution::Ggx)
+        };
+        let back = model_of(&params_of(&coated), shape).coat.unwrap();
+        assert!((back.f0[0] - 0.05).abs() < 1e-9 && (back.alpha - 0.04).abs() < 1e-9);
+        for extreme in [-1e3, 1e3] {
+            let mut theta = params_of(&coated);
+            theta[P_ONE] = extreme;
+            let f0 = model_of(&theta, shape).coat.unwrap().f0;
+            assert!((COAT_F0_MIN..=COAT_F0_MAX).contains(&f0[0]), "{f0:?}");
+            assert!(f0[0] == f0[1] && f0[1] == f0[2]);
+        }
+        // A lobe turned by π is the same lobe, reported in [0, π).
+        let mut theta = params_of(&MIXED);
+        theta[8] = MIXED.rotation + std::f64::consts::PI;
+        let turned = model_of(&theta, Shape::one_lobe(Distribution::Ggx)).rotation;
+        assert!((turned - MIXED.rotation).abs() < 1e-12);
+        theta[8] = MIXED.rotation - std::f64::consts::PI;
+        let turned = model_of(&theta, Shape::one_lobe(Distribution::Ggx)).rotation;
+        assert!((turned - MIXED.rotation).abs() < 1e-12);
+    }
 }

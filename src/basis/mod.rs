@@ -301,6 +301,11 @@ mod tests {
                 assert_eq!(array[p], (slot * PAIRS + p) as f32, "{name}[{p}]");
             }
         }
+        assert_eq!(
+            format!("{basis:?}"),
+            "Basis { components: 2, observations: 7, variances: [3.0, 2.0], \
+             residual_variance: 0.5 }"
+        );
         assert_eq!(basis.rows().len(), 2 * PAIRS);
         assert_eq!(basis.rows()[0], (5 * PAIRS) as f32);
         for p in [0, 1, 777, PAIRS - 1] {

@@ -178,3 +178,94 @@ pub(super) fn params_of(model: &LambertMicrofacet) -> Params {
     }
     theta
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_shape_varies_its_own_parameters() {
+        let one = Shape::one_lobe(Distribution::Ggx);
+        let cases = [
+            (one, (0..P_ONE).collect::<Vec<_>>()),
+            (
+                Shape {
+                    two_lobes: true,
+                    ..one
+                },
+                (0..P_COAT).collect(),
+            ),
+            (
+                Shape {
+                    haze: Some(Distribution::Beckmann),
+                    ..one
+                },
+                (0..P_COAT).collect(),
+            ),
+            (
+                Shape { edge: true, ..one },
+                (0..P_ONE).chain(EDGE..P).collect(),
+            ),
+            (
+                Shape {
+                    haze: Some(Distribution::Ggx),
+                    edge: true,
+                    ..one
+                },
+                (0..P).collect(),
+            ),
+        ];
+        for (shape, expected) in cases {
+            let (active, n) = shape.active();
+            assert_eq!(active[..n], expected[..], "{shape:?}");
+        }
+        assert!(SHAPE.iter().all(|&i| i < P_ONE) && (P_ONE..P_COAT).contains(&COAT_SHAPE));
+    }
+
+    #[test]
+    fn the_maps_from_parameters_stay_in_their_ranges_and_invert() {
+        assert_eq!(logistic(0.0), 0.5);
+        for x in [-10.0, -2.0, 0.3, 5.0] {
+            assert!((logistic(x) + logistic(-x) - 1.0).abs() < 1e-15);
+            assert!((logit(logistic(x)) - x).abs() < 1e-6 * x.abs().max(1.0));
+        }
+        // Probabilities at or past the ends map to the clamped logit, never to ±∞.
+        let end = (1e-6f64 / (1.0 - 1e-6)).ln();
+        assert_eq!(logit(0.0), end);
+        assert_eq!(logit(-1.0), end);
+        assert!((logit(1.0) + end).abs() < 1e-9);
+        let (lowest, highest) = (alpha_of(-1e3), alpha_of(1e3));
+        assert!(
+            lowest >= ALPHA_MIN && lowest - ALPHA_MIN < 1e-15,
+            "{lowest}"
+        );
+        assert!(
+            highest <= ALPHA_MAX && ALPHA_MAX - highest < 1e-14,
+            "{highest}"
+        );
+        assert!((alpha_of(0.0) - (ALPHA_MIN * ALPHA_MAX).sqrt()).abs() < 1e-12);
+        for alpha in [0.011, 0.1, 0.7, 1.4] {
+            assert!(
+                (alpha_of(alpha_param(alpha)) - alpha).abs() < 1e-9,
+                "{alpha}"
+            );
+        }
+    }
+
+    /// A dielectric's F0 may take any tint; a metal's stops where η would pass
+    /// [`EDGE_ETA_MAX`].
+    #[test]
+    fn the_least_edge_tint_keeps_eta_within_its_bound() {
+        assert_eq!(least_edge_tint(0.04), 0.0);
+        for f0 in [0.6, 0.8, 0.95] {
+            let least = least_edge_tint(f0);
+            assert!(least > 0.0 && least < 1.0, "{f0}: {least}");
+            let (eta, _) = super::super::model::conductor_from_edge_tint(f0, least);
+            assert!((eta - EDGE_ETA_MAX).abs() < 1e-9, "{f0}: η {eta}");
+            for g in [least, 0.5 * (least + 1.0), 1.0] {
+                let u = logistic(edge_param(f0, g));
+                assert!((least + (1.0 - least) * u - g).abs() < 1e-6, "{f0} {g}");
+            }
+        }
+    }
+}

@@ -336,7 +336,7 @@ mod tests {
         let path = cache.path_for(&SMALL_TEST_SPEC);
         let pristine = std::fs::read(&path).unwrap();
         type Damage = fn(&mut Vec<u8>);
-        let damages: [(&str, Damage, &str); 6] = [
+        let damages: [(&str, Damage, &str); 7] = [
             ("short", |b| b.truncate(100), "header needs 256"),
             (
                 "header only",
@@ -348,6 +348,15 @@ mod tests {
             (
                 "key length",
                 |b| b[20..24].copy_from_slice(&u32::MAX.to_le_bytes()),
+                "built from other inputs",
+            ),
+            (
+                // Longer than a key may be, in a file too short to hold it.
+                "key length past the header",
+                |b| {
+                    b[20..24].copy_from_slice(&250u32.to_le_bytes());
+                    b.truncate(300);
+                },
                 "built from other inputs",
             ),
             (

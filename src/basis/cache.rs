@@ -336,7 +336,7 @@ mod tests {
         let path = cache.path_for(&SMALL_TEST_SPEC);
         let pristine = std::fs::read(&path).unwrap();
         type Damage = fn(&mut Vec<u8>);
-        let damages: [(&str, Damage, &str); 7] = [
+        let damages: [(&str, Damage, &str); 9] = [
             ("short", |b| b.truncate(100), "header needs 256"),
             (
                 "header only",
@@ -364,6 +364,17 @@ mod tests {
                 |b| b[12..16].copy_from_slice(&0u32.to_le_bytes()),
                 "0 components",
             ),
+            (
+                "too many components",
+                |b| b[12..16].copy_from_slice(&101u32.to_le_bytes()),
+                "101 components",
+            ),
+            (
+                // As many as a basis may have, but not what the payload holds.
+                "most components",
+                |b| b[12..16].copy_from_slice(&100u32.to_le_bytes()),
+                "truncated or corrupt",
+            ),
         ];
         for (what, damage, expected) in damages {
             let mut bytes = pristine.clone();
@@ -385,5 +396,51 @@ mod tests {
             error.contains(&format!("expected {}", pristine.len())),
             "{error}"
         );
+    }
+
+    /// A file whose checksum holds but whose variances cannot be a basis's (written by
+    /// something else, or by a bug) is refused; a zero variance is a basis's.
+    #[test]
+    fn invalid_variances_are_refused_even_under_a_good_checksum() {
+        let (_dir, cache) = stored();
+        let path = cache.path_for(&SMALL_TEST_SPEC);
+        let pristine = std::fs::read(&path).unwrap();
+        let rewrite = |variance: Option<f64>, residual: Option<f64>| {
+            let mut bytes = pristine.clone();
+            if let Some(v) = variance {
+                // The last component's variance.
+                let at = HEADER_LEN + 8 * (SMALL_TEST_SPEC.components - 1);
+                bytes[at..at + 8].copy_from_slice(&v.to_le_bytes());
+            }
+            if let Some(r) = residual {
+                bytes[40..48].copy_from_slice(&r.to_le_bytes());
+            }
+            let mut crc = crc32fast::Hasher::new();
+            crc.update(&bytes[40..48]);
+            crc.update(&bytes[HEADER_LEN..]);
+            bytes[32..36].copy_from_slice(&crc.finalize().to_le_bytes());
+            std::fs::write(&path, &bytes).unwrap();
+        };
+        let bad = [
+            (Some(f64::NAN), None),
+            (Some(f64::INFINITY), None),
+            (Some(-1e-9), None),
+            (None, Some(0.0)),
+            (None, Some(-0.5)),
+            (None, Some(f64::INFINITY)),
+            (None, Some(f64::NAN)),
+        ];
+        for (variance, residual) in bad {
+            rewrite(variance, residual);
+            let error = load_error(&cache, &SMALL_TEST_SPEC);
+            assert!(
+                error.contains("invalid variances"),
+                "{variance:?} {residual:?}: {error}"
+            );
+        }
+        rewrite(Some(0.0), Some(0.25));
+        let loaded = cache.load(&SMALL_TEST_SPEC).unwrap().unwrap();
+        assert_eq!(loaded.variances()[SMALL_TEST_SPEC.components - 1], 0.0);
+        assert_eq!(loaded.residual_variance(), 0.25);
     }
 }

@@ -582,4 +582,51 @@ mod tests {
             assert!(fit.iterations >= 2);
         }
     }
+
+    /// Every start is scouted, the best run on to convergence, and the fit counts every
+    /// iteration of both and keeps the converged best, not a scout.
+    #[test]
+    fn a_shape_fit_scouts_every_start_and_keeps_the_converged_best() {
+        let shape = Shape::one_lobe(Distribution::Ggx);
+        let observations: Vec<Observation> = observations_of(&PLASTIC, EXACT)
+            .into_iter()
+            .map(|mut o| {
+                o.target = PLASTIC.eval(o.l, o.v).map(|r| (r * o.c + MAP_EPSILON).ln());
+                o
+            })
+            .collect();
+        let near = params_of(&LambertMicrofacet {
+            alpha_x: 0.2,
+            specular: 0.6,
+            ..PLASTIC
+        });
+        let starts = [[0.0; P], near, [0.5; P]];
+        let options = FitOptions {
+            scout_iterations: 1,
+            finalists: 2,
+            max_iterations: 200,
+            ..FitOptions::default()
+        };
+        let mut scouted: Vec<(Params, f64, usize)> = starts
+            .iter()
+            .map(|s| levenberg_marquardt(&observations, *s, shape, 1))
+            .collect();
+        let mut iterations: usize = scouted.iter().map(|s| s.2).sum();
+        scouted.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let mut best = scouted[0].1;
+        for (theta, _, _) in &scouted[..2] {
+            let (_, cost, it) = levenberg_marquardt(&observations, *theta, shape, 200);
+            iterations += it;
+            best = best.min(cost);
+        }
+        let fit = fit_shape(&observations, &starts, shape, &options);
+        assert_eq!(fit.iterations, iterations);
+        assert_eq!(fit.cost, best);
+        assert!(
+            fit.cost < 1e-6 * scouted[0].1,
+            "{} against a scout's {}",
+            fit.cost,
+            scouted[0].1
+        );
+    }
 }

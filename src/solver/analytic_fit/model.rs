@@ -209,3 +209,187 @@ impl Brdf for LambertMicrofacet {
         self.alpha_x == self.alpha_y
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::models::fresnel_conductor;
+
+    const PLASTIC: LambertMicrofacet = LambertMicrofacet {
+        albedo: [0.4, 0.2, 0.1],
+        f0: [0.04; 3],
+        specular: 0.8,
+        distribution: Distribution::Ggx,
+        alpha_x: 0.2,
+        alpha_y: 0.2,
+        rotation: 0.0,
+        coat: None,
+        haze: None,
+        edge: None,
+    };
+
+    /// Reflectance at normal incidence of a conductor η + iκ, written out.
+    fn normal_reflectance(eta: f64, k: f64) -> f64 {
+        ((eta - 1.0).powi(2) + k * k) / ((eta + 1.0).powi(2) + k * k)
+    }
+
+    /// Whatever the edge tint, the conductor it names reflects `r` at normal incidence; a
+    /// tint of 0 is the dielectric of that reflectance and 1 the strongest metal, and the index
+    /// falls as the tint rises.
+    #[test]
+    fn an_edge_tint_names_a_conductor_that_reflects_f0_head_on() {
+        for r in [0.02, 0.04, 0.3, 0.6, 0.95] {
+            let root: f64 = f64::sqrt(r);
+            let mut last_eta = f64::INFINITY;
+            for g in [0.0, 0.25, 0.5, 0.75, 1.0] {
+                let (eta, k) = conductor_from_edge_tint(r, g);
+                assert!(eta.is_finite() && k.is_finite() && k >= 0.0, "{r} {g}");
+                assert!((normal_reflectance(eta, k) - r).abs() < 1e-9, "{r} {g}");
+                assert!((fresnel_conductor(1.0, eta, k) - r).abs() < 1e-9, "{r} {g}");
+                assert!(eta < last_eta, "{r} {g}: η {eta} after {last_eta}");
+                last_eta = eta;
+                if g == 0.0 {
+                    assert!((eta - (1.0 + root) / (1.0 - root)).abs() < 1e-9 * eta);
+                    assert!(k < 1e-6, "{r}: κ {k}");
+                }
+                if g == 1.0 {
+                    assert!((eta - (1.0 - r) / (1.0 + r)).abs() < 1e-12, "{r}: η {eta}");
+                }
+            }
+        }
+        // Reflectances outside [0, 1) are held inside it rather than named as NaN.
+        let (eta, k) = conductor_from_edge_tint(0.0, 0.0);
+        assert!((eta - 1.0).abs() < 1e-12 && k == 0.0);
+        let (eta, k) = conductor_from_edge_tint(-0.5, 0.5);
+        assert!((eta - 1.0).abs() < 1e-12 && k == 0.0, "{eta} {k}");
+        let (eta, k) = conductor_from_edge_tint(1.5, 0.5);
+        assert!(eta.is_finite() && k.is_finite());
+        assert!(
+            (normal_reflectance(eta, k) - 0.9999).abs() < 1e-6,
+            "{eta} {k}"
+        );
+    }
+
+    /// Without an edge tint the lobe's Fresnel is Schlick's from F0; with one, each channel
+    /// is the conductor its F0 and tint name, for the first lobe and for a haze alike.
+    #[test]
+    fn the_fresnel_is_schlicks_or_the_conductor_an_edge_tint_names() {
+        assert_eq!(PLASTIC.fresnel(), Fresnel::Schlick { f0: [0.04; 3] });
+        assert_eq!(PLASTIC.parts().1.fresnel, PLASTIC.fresnel());
+        let gold = LambertMicrofacet {
+            albedo: [0.0; 3],
+            f0: [0.9, 0.6, 0.3],
+            edge: Some([0.1, 0.5, 0.9]),
+            haze: Some(Haze {
+                distribution: Distribution::Beckmann,
+                share: 0.3,
+                alpha: 0.4,
+            }),
+            ..PLASTIC
+        };
+        let Fresnel::Conductor { eta, k } = gold.fresnel() else {
+            panic!("an edge tint gives Schlick's Fresnel");
+        };
+        for c in 0..3 {
+            let (want_eta, want_k) = conductor_from_edge_tint(gold.f0[c], gold.edge.unwrap()[c]);
+            assert_eq!((eta[c], k[c]), (want_eta, want_k), "channel {c}");
+        }
+        let glow = gold.second_part().expect("a haze is a second lobe");
+        assert_eq!(glow.fresnel, gold.fresnel());
+        assert_eq!(glow.distribution, Distribution::Beckmann);
+        assert_eq!((glow.alpha_x, glow.alpha_y), (0.4, 0.4));
+        // A coat's lobe has its own Schlick Fresnel and the first lobe's distribution.
+        let coated = LambertMicrofacet {
+            coat: Some(Coat {
+                f0: [0.05; 3],
+                alpha: 0.03,
+            }),
+            ..gold
+        };
+        let coat = coated.second_part().unwrap();
+        assert_eq!(coat.fresnel, Fresnel::Schlick { f0: [0.05; 3] });
+        assert_eq!(coat.distribution, Distribution::Ggx);
+        assert_eq!(PLASTIC.second_part(), None);
+    }
+
+    /// A pair with either direction under the surface reflects nothing, diffuse included;
+    /// and a lobe whose distribution is zero adds nothing to the diffuse, conductor or not.
+    #[test]
+    fn nothing_is_reflected_below_the_horizon_and_a_zero_lobe_adds_nothing() {
+        let up = DVec3::new(0.3, 0.1, 0.9).normalize();
+        let down = DVec3::new(0.3, 0.1, -0.9).normalize();
+        let metal = LambertMicrofacet {
+            edge: Some([0.5; 3]),
+            f0: [0.9; 3],
+            ..PLASTIC
+        };
+        for model in [PLASTIC, metal] {
+            assert_eq!(model.eval(up, down), [0.0; 3]);
+            assert_eq!(model.eval(down, up), [0.0; 3]);
+            let fresnel = model.fresnel();
+            let rho = model.eval_from_lobes(&fresnel, true, 0.0, 0.0, 0.5);
+            assert_eq!(rho, model.albedo.map(|a| a * FRAC_1_PI));
+            assert_eq!(
+                model.eval_from_lobes(&fresnel, false, 1.0, 1.0, 0.5),
+                [0.0; 3]
+            );
+        }
+        // A coat with nothing from its lobe adds nothing either.
+        let coated = LambertMicrofacet {
+            coat: Some(Coat {
+                f0: [0.05; 3],
+                alpha: 0.03,
+            }),
+            ..PLASTIC
+        };
+        let fresnel = coated.fresnel();
+        let without = coated.eval_from_lobes(&fresnel, true, 0.5, 0.0, 0.7);
+        let with = coated.eval_from_lobes(&fresnel, true, 0.5, 2.0, 0.7);
+        for c in 0..3 {
+            let lobe = 0.8 * schlick(0.04, 0.7) * 0.5;
+            assert!((without[c] - (PLASTIC.albedo[c] * FRAC_1_PI + lobe)).abs() < 1e-15);
+            assert!((with[c] - without[c] - schlick(0.05, 0.7) * 2.0).abs() < 1e-15);
+        }
+    }
+
+    /// A haze mixes the two lobes' D·G by its share before the shared Fresnel and weight.
+    #[test]
+    fn a_haze_mixes_the_lobes_by_its_share() {
+        let hazy = LambertMicrofacet {
+            haze: Some(Haze {
+                distribution: Distribution::Beckmann,
+                share: 0.25,
+                alpha: 0.5,
+            }),
+            ..PLASTIC
+        };
+        let fresnel = hazy.fresnel();
+        let rho = hazy.eval_from_lobes(&fresnel, true, 2.0, 0.4, 0.6);
+        for c in 0..3 {
+            let mixed = 0.75 * 2.0 + 0.25 * 0.4;
+            let want = PLASTIC.albedo[c] * FRAC_1_PI + 0.8 * schlick(0.04, 0.6) * mixed;
+            assert!(
+                (rho[c] - want).abs() < 1e-15,
+                "{c}: {} against {want}",
+                rho[c]
+            );
+        }
+    }
+
+    #[test]
+    fn a_model_is_isotropic_only_when_its_two_roughnesses_agree() {
+        assert!(PLASTIC.is_isotropic());
+        let brushed = LambertMicrofacet {
+            alpha_y: 0.05,
+            ..PLASTIC
+        };
+        assert!(!brushed.is_isotropic());
+        assert!(
+            !LambertMicrofacet {
+                alpha_x: 0.05,
+                ..PLASTIC
+            }
+            .is_isotropic()
+        );
+    }
+}

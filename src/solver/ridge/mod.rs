@@ -1572,4 +1572,49 @@ mod tests {
         solver.refit_prior_mean();
         assert!(Arc::ptr_eq(solver.reference().expect("kept"), &reference));
     }
+
+    /// The incremental updates leave rounding residue, which an exact rebuild clears every
+    /// [`Solver::REBUILD_INTERVAL`] changes: until then the sums drift from the rebuilt ones
+    /// in the last bits; on the interval's last change they are the rebuilt sums, bit for bit.
+    #[test]
+    fn the_normal_equations_are_rebuilt_exactly_once_every_interval() {
+        let basis = small_test_basis();
+        let mut solver = Solver::with_model(basis, Regularization::Auto, MODEL);
+        for i in 0..6 {
+            let pair = PairIndex::from_index(i * 211_111 + 4_321);
+            solver.apply(&BinChange::observed(pair, [0.3, 0.4, 0.5], EXACT));
+        }
+        // Repainting within a quarter octave keeps every weight and L̄: only r and yᵀWy move.
+        let pair = PairIndex::from_index(4_321);
+        // Three values in turn: their differences do not cancel in floating point as a pair's do.
+        let values = [
+            [0.3, 0.4, 0.5],
+            [0.300_113, 0.400_317, 0.500_719],
+            [0.299_929, 0.400_231, 0.499_873],
+        ];
+        let bits = |solver: &Solver| {
+            let (normal, rhs) = solver.normal_equations();
+            let mut bits: Vec<u64> = normal.iter().map(|v| v.to_bits()).collect();
+            bits.extend(rhs.iter().flatten().map(|v| v.to_bits()));
+            bits.extend(solver.yty.map(f64::to_bits));
+            bits
+        };
+        let mut step = 0;
+        while solver.changes_since_rebuild + 1 < Solver::REBUILD_INTERVAL {
+            solver.apply(&BinChange::observed(pair, values[step % 3], EXACT));
+            step += 1;
+        }
+        let mut rebuilt = solver.clone();
+        rebuilt.rebuild();
+        assert_ne!(
+            bits(&solver),
+            bits(&rebuilt),
+            "no residue to clear after {step} changes"
+        );
+        solver.apply(&BinChange::observed(pair, values[step % 3], EXACT));
+        assert_eq!(solver.changes_since_rebuild, 0);
+        let mut rebuilt = solver.clone();
+        rebuilt.rebuild();
+        assert_eq!(bits(&solver), bits(&rebuilt));
+    }
 }

@@ -1599,19 +1599,19 @@ mod tests {
             bits.extend(solver.yty.map(f64::to_bits));
             bits
         };
-        let mut step = 0;
-        while solver.changes_since_rebuild + 1 < Solver::REBUILD_INTERVAL {
+        let steps = Solver::REBUILD_INTERVAL - 1 - solver.changes_since_rebuild;
+        for step in 0..steps {
             solver.apply(&BinChange::observed(pair, values[step % 3], EXACT));
-            step += 1;
         }
+        assert_eq!(solver.changes_since_rebuild, Solver::REBUILD_INTERVAL - 1);
         let mut rebuilt = solver.clone();
         rebuilt.rebuild();
         assert_ne!(
             bits(&solver),
             bits(&rebuilt),
-            "no residue to clear after {step} changes"
+            "no residue to clear after {steps} changes"
         );
-        solver.apply(&BinChange::observed(pair, values[step % 3], EXACT));
+        solver.apply(&BinChange::observed(pair, values[steps % 3], EXACT));
         assert_eq!(solver.changes_since_rebuild, 0);
         let mut rebuilt = solver.clone();
         rebuilt.rebuild();

@@ -1599,9 +1599,15 @@ mod tests {
             bits.extend(solver.yty.map(f64::to_bits));
             bits
         };
-        let steps = Solver::REBUILD_INTERVAL - 1 - solver.changes_since_rebuild;
+        let start = solver.changes_since_rebuild;
+        let steps = Solver::REBUILD_INTERVAL - 1 - start;
         for step in 0..steps {
             solver.apply(&BinChange::observed(pair, values[step % 3], EXACT));
+            assert_eq!(
+                solver.changes_since_rebuild,
+                start + step + 1,
+                "rebuilt early"
+            );
         }
         assert_eq!(solver.changes_since_rebuild, Solver::REBUILD_INTERVAL - 1);
         let mut rebuilt = solver.clone();

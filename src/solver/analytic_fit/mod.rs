@@ -1309,4 +1309,51 @@ mod tests {
         let turned = model_of(&theta, Shape::one_lobe(Distribution::Ggx)).rotation;
         assert!((turned - MIXED.rotation).abs() < 1e-12);
     }
+
+    /// The residual a fit reports is its returned model's own over the bins: the log of
+    /// ρ·cos + ε against the paint's, squared, weighted by the pair's multiplicity and averaged
+    /// over every bin's three channels, written out here.
+    #[test]
+    fn the_reported_residual_is_that_of_the_returned_model() {
+        use crate::table::{PAIRS, pair_multiplicity};
+        let truth = LambertMicrofacet {
+            albedo: [0.3, 0.2, 0.1],
+            f0: [0.04; 3],
+            alpha_x: 0.2,
+            alpha_y: 0.2,
+            rotation: 0.0,
+            specular: 1.0,
+            ..MIXED
+        };
+        // Each bin off the truth by up to ±15%, so no model fits them exactly.
+        let bins: Vec<(PairIndex, [f64; 3])> = (0..PAIRS)
+            .step_by(7_919)
+            .map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                let wobble = 1.0 + 0.05 * ((p % 7) as f64 - 3.0);
+                let rho = truth.eval(bin_centre(lo), bin_centre(hi));
+                (pair, rho.map(|v| v * wobble))
+            })
+            .collect();
+        let fit = fit_lambert_microfacet(&bins, &FitOptions::default());
+        let (mut sum, mut count) = (0.0, 0.0);
+        for &(pair, rho) in &bins {
+            let (lo, hi) = pair_directions(pair);
+            let c = cos_weight(pair);
+            let model = fit.model.eval(bin_centre(lo), bin_centre(hi));
+            for ch in 0..3 {
+                let r = (model[ch] * c + MAP_EPSILON).ln() - (rho[ch] * c + MAP_EPSILON).ln();
+                sum += pair_multiplicity(pair) * r * r;
+                count += 1.0;
+            }
+        }
+        let want = (sum / count).sqrt();
+        assert!(want > 0.01, "the bins fit exactly: {want}");
+        assert!(
+            (fit.rms_log_residual - want).abs() < 1e-9 * want,
+            "{} against {want}",
+            fit.rms_log_residual
+        );
+    }
 }

@@ -1356,4 +1356,73 @@ mod tests {
             fit.rms_log_residual
         );
     }
+
+    /// Beckmann replaces GGX only where it fits the paint better, and either way the fit
+    /// counts both shapes' starts and iterations: Beckmann's as its shape fitted on its own.
+    #[test]
+    fn a_beckmann_lobe_is_kept_only_where_it_fits_better_and_both_are_counted() {
+        let ggx_only = FitOptions::default();
+        let both = FitOptions {
+            beckmann_margin: Some(1.02),
+            ..ggx_only
+        };
+        for distribution in [Distribution::Ggx, Distribution::Beckmann] {
+            let truth = LambertMicrofacet {
+                albedo: [0.1; 3],
+                f0: [0.04; 3],
+                distribution,
+                alpha_x: 0.15,
+                alpha_y: 0.15,
+                rotation: 0.0,
+                specular: 1.0,
+                ..MIXED
+            };
+            let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..crate::table::PAIRS)
+                .step_by(3_001)
+                .map(|p| {
+                    let pair = PairIndex::from_index(p);
+                    let (lo, hi) = pair_directions(pair);
+                    (pair, truth.eval(bin_centre(lo), bin_centre(hi)), EXACT)
+                })
+                .collect();
+            let alone = fit_lambert_microfacet_bounded(&bins, &ggx_only);
+            let fit = fit_lambert_microfacet_bounded(&bins, &both);
+            assert_eq!(fit.model.distribution, distribution);
+            let observations: Vec<Observation> = bins
+                .iter()
+                .map(|&(pair, rho, bounds)| {
+                    let (lo, hi) = pair_directions(pair);
+                    let c = cos_weight(pair);
+                    Observation {
+                        l: bin_centre(lo),
+                        v: bin_centre(hi),
+                        target: rho.map(|r| (r * c + MAP_EPSILON).ln()),
+                        c,
+                        sqrt_weight: pair_multiplicity(pair).sqrt(),
+                        bounds,
+                    }
+                })
+                .collect();
+            let starts = starting_points(&bins);
+            let beckmann = fit_shape(
+                &observations,
+                &starts,
+                Shape::one_lobe(Distribution::Beckmann),
+                &both,
+            );
+            assert_eq!(alone.starts, starts.len());
+            assert_eq!(fit.starts, 2 * starts.len());
+            assert_eq!(fit.iterations, alone.iterations + beckmann.iterations);
+            if distribution == Distribution::Ggx {
+                assert_eq!(fit.model, alone.model);
+            } else {
+                assert!(
+                    fit.rms_log_residual * 1.02 < alone.rms_log_residual,
+                    "{} against GGX's {}",
+                    fit.rms_log_residual,
+                    alone.rms_log_residual
+                );
+            }
+        }
+    }
 }

@@ -1128,6 +1128,25 @@ mod tests {
         }
     }
 
+    /// The fit's observations of bins, written out: the log of ρ·cos + ε, weighted by the
+    /// square root of the pair's multiplicity.
+    fn observations_of(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Observation> {
+        bins.iter()
+            .map(|&(pair, rho, bounds)| {
+                let (lo, hi) = pair_directions(pair);
+                let c = cos_weight(pair);
+                Observation {
+                    l: bin_centre(lo),
+                    v: bin_centre(hi),
+                    target: rho.map(|r| (r * c + MAP_EPSILON).ln()),
+                    c,
+                    sqrt_weight: pair_multiplicity(pair).sqrt(),
+                    bounds,
+                }
+            })
+            .collect()
+    }
+
     /// The brightness-weighted RMS written out: each bin's log residuals weighted by
     /// ((L + κ L̄)/((1 + κ) L̄))^β, over the weights of its three channels.
     #[test]
@@ -1149,21 +1168,7 @@ mod tests {
                 (pair, truth.eval(bin_centre(lo), bin_centre(hi)), EXACT)
             })
             .collect();
-        let observations: Vec<Observation> = bins
-            .iter()
-            .map(|&(pair, rho, bounds)| {
-                let (lo, hi) = pair_directions(pair);
-                let c = cos_weight(pair);
-                Observation {
-                    l: bin_centre(lo),
-                    v: bin_centre(hi),
-                    target: rho.map(|r| (r * c + MAP_EPSILON).ln()),
-                    c,
-                    sqrt_weight: pair_multiplicity(pair).sqrt(),
-                    bounds,
-                }
-            })
-            .collect();
+        let observations = observations_of(&bins);
         let luminance = |o: &Observation| {
             let v = o.target.map(|t| (t.exp() - MAP_EPSILON).max(0.0));
             0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
@@ -1388,21 +1393,7 @@ mod tests {
             let alone = fit_lambert_microfacet_bounded(&bins, &ggx_only);
             let fit = fit_lambert_microfacet_bounded(&bins, &both);
             assert_eq!(fit.model.distribution, distribution);
-            let observations: Vec<Observation> = bins
-                .iter()
-                .map(|&(pair, rho, bounds)| {
-                    let (lo, hi) = pair_directions(pair);
-                    let c = cos_weight(pair);
-                    Observation {
-                        l: bin_centre(lo),
-                        v: bin_centre(hi),
-                        target: rho.map(|r| (r * c + MAP_EPSILON).ln()),
-                        c,
-                        sqrt_weight: pair_multiplicity(pair).sqrt(),
-                        bounds,
-                    }
-                })
-                .collect();
+            let observations = observations_of(&bins);
             let starts = starting_points(&bins);
             let beckmann = fit_shape(
                 &observations,

@@ -1128,6 +1128,18 @@ mod tests {
         }
     }
 
+    /// `model`'s exact value at the bin centres of every `step`-th pair.
+    fn exact_bins(model: &LambertMicrofacet, step: usize) -> Vec<(PairIndex, [f64; 3], Bounds)> {
+        (0..crate::table::PAIRS)
+            .step_by(step)
+            .map(|p| {
+                let pair = PairIndex::from_index(p);
+                let (lo, hi) = pair_directions(pair);
+                (pair, model.eval(bin_centre(lo), bin_centre(hi)), EXACT)
+            })
+            .collect()
+    }
+
     /// The fit's observations of bins, written out: the log of ρ·cos + ε, weighted by the
     /// square root of the pair's multiplicity.
     fn observations_of(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Observation> {
@@ -1160,14 +1172,7 @@ mod tests {
             alpha_x: 0.05,
             ..MIXED
         };
-        let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..crate::table::PAIRS)
-            .step_by(2311)
-            .map(|p| {
-                let pair = PairIndex::from_index(p);
-                let (lo, hi) = pair_directions(pair);
-                (pair, truth.eval(bin_centre(lo), bin_centre(hi)), EXACT)
-            })
-            .collect();
+        let bins = exact_bins(&truth, 2311);
         let observations = observations_of(&bins);
         let luminance = |o: &Observation| {
             let v = o.target.map(|t| (t.exp() - MAP_EPSILON).max(0.0));
@@ -1382,14 +1387,7 @@ mod tests {
                 specular: 1.0,
                 ..MIXED
             };
-            let bins: Vec<(PairIndex, [f64; 3], Bounds)> = (0..crate::table::PAIRS)
-                .step_by(3_001)
-                .map(|p| {
-                    let pair = PairIndex::from_index(p);
-                    let (lo, hi) = pair_directions(pair);
-                    (pair, truth.eval(bin_centre(lo), bin_centre(hi)), EXACT)
-                })
-                .collect();
+            let bins = exact_bins(&truth, 3_001);
             let alone = fit_lambert_microfacet_bounded(&bins, &ggx_only);
             let fit = fit_lambert_microfacet_bounded(&bins, &both);
             assert_eq!(fit.model.distribution, distribution);

@@ -1414,4 +1414,94 @@ mod tests {
             }
         }
     }
+
+    /// A coat is fitted over the chosen lobe and kept only where it fits the paint better by
+    /// the margin, and either way the fit counts its starts and iterations: the coat's as its
+    /// shape fitted on its own from the chosen lobe.
+    #[test]
+    fn a_coat_is_kept_only_where_it_fits_better_and_is_counted() {
+        let one_lobe = FitOptions::default();
+        let coated = FitOptions {
+            coat_margin: Some(1.05),
+            ..one_lobe
+        };
+        let base = LambertMicrofacet {
+            albedo: [0.3, 0.2, 0.1],
+            f0: [0.04; 3],
+            alpha_x: 0.4,
+            alpha_y: 0.4,
+            rotation: 0.0,
+            specular: 1.0,
+            ..MIXED
+        };
+        let with_coat = LambertMicrofacet {
+            coat: Some(Coat {
+                f0: [0.05; 3],
+                alpha: 0.05,
+            }),
+            ..base
+        };
+        for truth in [with_coat, base] {
+            // Each bin off by up to ±3%, so that two lobes always fit the noise a little
+            // better than one, though never by the margin.
+            let bins: Vec<_> = exact_bins(&truth, 2_003)
+                .into_iter()
+                .enumerate()
+                .map(|(i, (pair, rho, bounds))| {
+                    let wobble = 1.0 + 0.01 * ((i % 7) as f64 - 3.0);
+                    (pair, rho.map(|v| v * wobble), bounds)
+                })
+                .collect();
+            let alone = fit_lambert_microfacet_bounded(&bins, &one_lobe);
+            let fit = fit_lambert_microfacet_bounded(&bins, &coated);
+            let observations = observations_of(&bins);
+            let starts = starting_points(&bins);
+            let first = fit_shape(
+                &observations,
+                &starts,
+                Shape::one_lobe(Distribution::Ggx),
+                &coated,
+            );
+            let second_starts = coat_starts(&first.theta);
+            let two = fit_shape(
+                &observations,
+                &second_starts,
+                Shape {
+                    two_lobes: true,
+                    ..Shape::one_lobe(Distribution::Ggx)
+                },
+                &coated,
+            );
+            assert_eq!(fit.starts, starts.len() + second_starts.len());
+            assert_eq!(fit.iterations, alone.iterations + two.iterations);
+            if truth.coat.is_some() {
+                // Either lobe may take the coat's part: two lobes are kept, one of each
+                // roughness.
+                let coat = fit.model.coat.expect("a coated paint keeps its coat");
+                let mut alphas = [coat.alpha, lobe_alpha(&fit.model)];
+                alphas.sort_by(f64::total_cmp);
+                assert!(
+                    (alphas[0] - 0.05).abs() < 0.02 && (alphas[1] - 0.4).abs() < 0.1,
+                    "{:?}",
+                    fit.model
+                );
+                assert!(
+                    fit.rms_log_residual * 1.05 < alone.rms_log_residual,
+                    "{} against one lobe's {}",
+                    fit.rms_log_residual,
+                    alone.rms_log_residual
+                );
+            } else {
+                assert_eq!(fit.model, alone.model);
+                // The coat comes within the margin of one lobe, so that the margin, not a
+                // worse fit, turns it away.
+                assert!(
+                    two.cost < first.cost * 1.05 * 1.05,
+                    "{} against one lobe's {}",
+                    two.cost,
+                    first.cost
+                );
+            }
+        }
+    }
 }

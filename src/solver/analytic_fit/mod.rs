@@ -149,7 +149,10 @@ pub fn fit_lambert_microfacet_bounded(
     }
     let residuals = 3.0 * observations.len() as f64;
     let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
-    let weighted = |fit: &ShapeFit| brightness_weighted_rms(&observations, &fit.model());
+    let score = |fit: &ShapeFit| Score {
+        rms_log: rms(fit.cost),
+        weighted: brightness_weighted_rms(&observations, &fit.model()),
+    };
     let ggx = fit_shape(
         &observations,
         &starts,
@@ -174,9 +177,7 @@ pub fn fit_lambert_microfacet_bounded(
         // the bright ones (weighted as the ridge weighs them). A sharp lobe over a haze (two
         // lobes) is fitted better in the log domain by a Beckmann lobe on the haze, which
         // misses the peak, and a second view would only pull it further onto the haze.
-        if rms(beckmann.cost) * margin < rms(best.cost)
-            && weighted(beckmann) * margin < weighted(&best)
-        {
+        if score(beckmann).beats(score(&best), margin) {
             best = beckmann.clone();
         }
     }
@@ -193,7 +194,7 @@ pub fn fit_lambert_microfacet_bounded(
         let two = fit_shape(&observations, &starts, shape, options);
         iterations += two.iterations;
         tried += starts.len();
-        if rms(two.cost) * margin < rms(best.cost) && weighted(&two) * margin < weighted(&best) {
+        if score(&two).beats(score(&best), margin) {
             best = two;
         }
     }
@@ -226,8 +227,7 @@ pub fn fit_lambert_microfacet_bounded(
             }
         }
         if let Some(hazy) = hazy
-            && rms(hazy.cost) * margin < rms(best.cost)
-            && weighted(&hazy) * margin < weighted(&best)
+            && score(&hazy).beats(score(&best), margin)
         {
             best = hazy;
         }
@@ -260,9 +260,7 @@ pub fn fit_lambert_microfacet_bounded(
         } else {
             margin
         };
-        if rms(tinted.cost) * margin < rms(best.cost)
-            && weighted(&tinted) * margin < weighted(&best)
-        {
+        if score(&tinted).beats(score(&best), margin) {
             best = tinted;
         }
     }
@@ -271,6 +269,24 @@ pub fn fit_lambert_microfacet_bounded(
         rms_log_residual: rms(best.cost),
         starts: tried,
         iterations,
+    }
+}
+
+/// How well a fit follows the paint: over every bin in the log domain (the fit's own
+/// measure, [`FitResult::rms_log_residual`]), and weighted towards the bright bins as the
+/// ridge weighs them ([`brightness_weighted_rms`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Score {
+    rms_log: f64,
+    weighted: f64,
+}
+
+impl Score {
+    /// Whether a fit of this score replaces one of `incumbent`'s: by `margin` on both
+    /// measures. A richer shape fits at least as well wherever its optimiser finds its
+    /// minimum, and one that follows the bulk of the bins can still miss the bright ones.
+    fn beats(self, incumbent: Score, margin: f64) -> bool {
+        self.rms_log * margin < incumbent.rms_log && self.weighted * margin < incumbent.weighted
     }
 }
 
@@ -1503,5 +1519,26 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A candidate replaces the incumbent only where it wins by the margin on both measures:
+    /// neither alone, nor a win inside the margin, nor a tie at it.
+    #[test]
+    fn a_score_beats_another_only_by_the_margin_on_both_measures() {
+        let score = |rms_log, weighted| Score { rms_log, weighted };
+        let incumbent = score(1.05, 1.05);
+        assert!(score(0.9, 0.9).beats(incumbent, 1.05));
+        // A win on one measure only.
+        assert!(!score(0.9, 1.2).beats(incumbent, 1.05));
+        assert!(!score(1.2, 0.9).beats(incumbent, 1.05));
+        // On each measure: a win inside the margin, and a tie at it (1.0 × 1.05 = 1.05).
+        for (rms_log, weighted) in [(1.02, 0.9), (0.9, 1.02), (1.0, 0.9), (0.9, 1.0)] {
+            assert!(
+                !score(rms_log, weighted).beats(incumbent, 1.05),
+                "{rms_log} {weighted}"
+            );
+        }
+        // A margin of 1: any win on both.
+        assert!(score(1.04, 1.04).beats(incumbent, 1.0));
     }
 }

@@ -1541,4 +1541,81 @@ mod tests {
         // A margin of 1: any win on both.
         assert!(score(1.04, 1.04).beats(incumbent, 1.0));
     }
+
+    /// A haze is tried only beside a metal's one lobe, from both one-lobe fits with both
+    /// glows, and the best of the four is kept where it fits better; every fit is counted.
+    #[test]
+    fn a_haze_is_tried_beside_a_metals_lobe_only_and_the_best_is_kept() {
+        let options = FitOptions {
+            beckmann_margin: Some(1.02),
+            haze_margin: Some(1.5),
+            ..FitOptions::default()
+        };
+        let hazy_metal = LambertMicrofacet {
+            albedo: [0.0; 3],
+            f0: [0.9, 0.8, 0.6],
+            alpha_x: 0.05,
+            alpha_y: 0.05,
+            rotation: 0.0,
+            specular: 1.0,
+            haze: Some(Haze {
+                distribution: Distribution::Beckmann,
+                share: 0.4,
+                alpha: 0.4,
+            }),
+            ..MIXED
+        };
+        let plastic = LambertMicrofacet {
+            albedo: [0.3; 3],
+            f0: [0.04; 3],
+            alpha_x: 0.2,
+            alpha_y: 0.2,
+            haze: None,
+            ..hazy_metal
+        };
+        for truth in [hazy_metal, plastic] {
+            let bins = exact_bins(&truth, 2_003);
+            let fit = fit_lambert_microfacet_bounded(&bins, &options);
+            let observations = observations_of(&bins);
+            let starts = starting_points(&bins);
+            let one_lobe: Vec<ShapeFit> = [Distribution::Ggx, Distribution::Beckmann]
+                .into_iter()
+                .map(|d| fit_shape(&observations, &starts, Shape::one_lobe(d), &options))
+                .collect();
+            let mut tried = 2 * starts.len();
+            let mut iterations: usize = one_lobe.iter().map(|f| f.iterations).sum();
+            if truth.haze.is_none() {
+                assert!(fit.model.haze.is_none(), "{:?}", fit.model);
+                assert_eq!((fit.starts, fit.iterations), (tried, iterations));
+                continue;
+            }
+            let mut best: Option<ShapeFit> = None;
+            for first in &one_lobe {
+                let haze_starts = haze_starts(&first.theta);
+                for glow in [Distribution::Ggx, Distribution::Beckmann] {
+                    let shape = Shape {
+                        haze: Some(glow),
+                        ..first.shape
+                    };
+                    let hazy = fit_shape(&observations, &haze_starts, shape, &options);
+                    tried += haze_starts.len();
+                    iterations += hazy.iterations;
+                    if best.as_ref().is_none_or(|b| hazy.cost < b.cost) {
+                        best = Some(hazy);
+                    }
+                }
+            }
+            assert_eq!((fit.starts, fit.iterations), (tried, iterations));
+            assert_eq!(fit.model, best.unwrap().model());
+            // Either lobe may take the glow's part: one of each roughness.
+            let haze = fit.model.haze.expect("a hazy metal keeps its haze");
+            let mut alphas = [haze.alpha, lobe_alpha(&fit.model)];
+            alphas.sort_by(f64::total_cmp);
+            assert!(
+                (alphas[0] - 0.05).abs() < 0.01 && (alphas[1] - 0.4).abs() < 0.05,
+                "{:?}",
+                fit.model
+            );
+        }
+    }
 }

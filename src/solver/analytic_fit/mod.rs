@@ -1618,4 +1618,89 @@ mod tests {
             );
         }
     }
+
+    /// An edge tint is tried only where the chosen lobe is a conductor's, from one start; it
+    /// must earn its place by the margin from one view's θ_d, and is kept wherever it fits
+    /// better from views that spread over θ_d. Every fit is counted.
+    #[test]
+    fn an_edge_tint_is_tried_on_conductors_and_its_margin_follows_the_spread_of_theta_d() {
+        let options = FitOptions {
+            edge_margin: Some(100.0),
+            ..FitOptions::default()
+        };
+        let tinted_metal = LambertMicrofacet {
+            albedo: [0.0; 3],
+            f0: [0.95, 0.75, 0.35],
+            alpha_x: 0.1,
+            alpha_y: 0.1,
+            rotation: 0.0,
+            specular: 1.0,
+            edge: Some([0.2, 0.5, 0.9]),
+            ..MIXED
+        };
+        let plastic = LambertMicrofacet {
+            albedo: [0.3; 3],
+            f0: [0.04; 3],
+            edge: None,
+            ..tinted_metal
+        };
+        let one_view: Vec<_> = pairs_at_half_differences(101, &[24.0..28.0])
+            .into_iter()
+            .map(|(pair, l, v)| (pair, tinted_metal.eval(l, v), EXACT))
+            .collect();
+        for (bins, keeps_tint) in [
+            (exact_bins(&tinted_metal, 2_003), true),
+            (one_view, false),
+            (exact_bins(&plastic, 2_003), false),
+        ] {
+            // Each bin off by up to ±3%, so that neither fit is exact.
+            let bins: Vec<_> = bins
+                .into_iter()
+                .enumerate()
+                .map(|(i, (pair, rho, bounds))| {
+                    let wobble = 1.0 + 0.01 * ((i % 7) as f64 - 3.0);
+                    (pair, rho.map(|v| v * wobble), bounds)
+                })
+                .collect();
+            let fit = fit_lambert_microfacet_bounded(&bins, &options);
+            let observations = observations_of(&bins);
+            let starts = starting_points(&bins);
+            let schlick = fit_shape(
+                &observations,
+                &starts,
+                Shape::one_lobe(Distribution::Ggx),
+                &options,
+            );
+            assert_eq!(fit.model.edge.is_some(), keeps_tint, "{:?}", fit.model);
+            if !conductor_like(&schlick.model()) {
+                assert_eq!(
+                    (fit.starts, fit.iterations),
+                    (starts.len(), schlick.iterations)
+                );
+                continue;
+            }
+            let shape = Shape {
+                edge: true,
+                ..schlick.shape
+            };
+            let start = edge_start(&schlick.theta, schlick.shape);
+            let tinted = fit_shape(&observations, &[start], shape, &options);
+            assert_eq!(
+                (fit.starts, fit.iterations),
+                (starts.len() + 1, schlick.iterations + tinted.iterations)
+            );
+            if keeps_tint {
+                assert_eq!(fit.model, tinted.model());
+            } else {
+                // Better, but not by the margin a single θ_d asks.
+                assert!(
+                    tinted.cost < schlick.cost,
+                    "{} {}",
+                    tinted.cost,
+                    schlick.cost
+                );
+                assert_eq!(fit.model, schlick.model());
+            }
+        }
+    }
 }

@@ -753,6 +753,24 @@ mod tests {
         let two = spread(&[0.0..5.0, 43.0..47.0]);
         assert!((40.0..47.0).contains(&two), "{two}");
         assert!(one < EDGE_SEEN_SPREAD_DEG && two > EDGE_SEEN_SPREAD_DEG);
+        // The percentiles written out: of θ_d 0°, 1°, …, 19°, the 5th is the second and the
+        // 95th the nineteenth (ranks 0.95 and 18.05, rounded).
+        let observations: Vec<Observation> = (0..20)
+            .map(|i| {
+                let theta_d = f64::from(i).to_radians();
+                let (sin, cos) = theta_d.sin_cos();
+                Observation {
+                    l: DVec3::new(sin, 0.0, cos),
+                    v: DVec3::new(-sin, 0.0, cos),
+                    target: [0.0; 3],
+                    c: 1.0,
+                    sqrt_weight: 1.0,
+                    bounds: EXACT,
+                }
+            })
+            .collect();
+        let spread = theta_d_spread(&observations);
+        assert!((spread - 17.0).abs() < 1e-6, "{spread}");
     }
 
     /// The fit of `bins` under `options`, and how far its table is from `truth`.

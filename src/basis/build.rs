@@ -787,4 +787,93 @@ mod tests {
         assert_eq!(gaussian_matrix(200, 100, 3), draws);
         assert_ne!(gaussian_matrix(200, 100, 4), draws);
     }
+
+    /// The two products over one batch, against their sums written out: Z = ÃᵀQ over every
+    /// row, and Y + ÃZ (centred) or Y + √w·M·Z (uncentred) on rows at the blocks' edges.
+    #[test]
+    fn the_batch_products_are_the_weighted_sums_written_out() {
+        let tables: Vec<Vec<[f32; 3]>> = (0..2)
+            .map(|j| {
+                (0..PAIRS)
+                    .map(|p| {
+                        let x = ((p * 7 + j * 13) % 101) as f32 / 50.0 - 1.0;
+                        [x, 0.5 * x + j as f32, -x * x]
+                    })
+                    .collect()
+            })
+            .collect();
+        let batch = Batch {
+            first_column: 3,
+            tables: tables.iter().map(Vec::as_slice).collect(),
+        };
+        let weights = row_weights();
+        let mean: Vec<f64> = (0..PAIRS).map(|p| (p % 17) as f64 / 17.0).collect();
+        let entry = |p: usize, col: usize| f64::from(tables[col / 3][p][col % 3]);
+        let close = |got: f64, want: f64, scale: f64| (got - want).abs() <= 1e-9 * scale;
+        let l = 3;
+        let q = gaussian_matrix(PAIRS, l, 5);
+        let z = batch_transpose_product(&batch, q.as_ref(), &weights, &mean);
+        assert_eq!((z.nrows(), z.ncols()), (6, l));
+        for col in 0..6 {
+            for c in 0..l {
+                let terms = (0..PAIRS).map(|p| weights[p] * (entry(p, col) - mean[p]) * q[(p, c)]);
+                let (want, scale) = terms.fold((0.0, 0.0), |(s, a), t| (s + t, a + t.abs()));
+                assert!(close(z[(col, c)], want, scale), "Z[{col}, {c}]");
+            }
+        }
+        let start = gaussian_matrix(PAIRS, l, 6);
+        let factors = gaussian_matrix(6, l, 7);
+        for centred in [true, false] {
+            let mut y = start.clone();
+            accumulate_product(
+                &mut y,
+                &batch,
+                factors.as_ref(),
+                &weights,
+                centred.then_some(mean.as_slice()),
+            );
+            for p in [0, 1, BLOCK_ROWS - 1, BLOCK_ROWS, PAIRS / 2, PAIRS - 1] {
+                let shift = if centred { mean[p] } else { 0.0 };
+                for c in 0..l {
+                    let terms =
+                        (0..6).map(|col| weights[p] * (entry(p, col) - shift) * factors[(col, c)]);
+                    let (sum, scale) = terms.fold((0.0, 0.0), |(s, a), t| (s + t, a + t.abs()));
+                    let want = start[(p, c)] + sum;
+                    assert!(
+                        close(y[(p, c)], want, scale + start[(p, c)].abs()),
+                        "Y[{p}, {c}], centred {centred}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// More power iterations than there are passes are clamped to the passes there are, each
+    /// reported under its name, from none of the database done to all of it.
+    #[test]
+    fn power_iterations_are_clamped_to_the_named_passes() {
+        let spec = BasisSpec {
+            database: DatabaseSpec { seed: 3, size: 2 },
+            components: 2,
+            oversampling: 1,
+            power_iterations: 9,
+        };
+        let seen = std::sync::Mutex::new(Vec::new());
+        let basis = build_basis(&spec, &|p| seen.lock().unwrap().push(p));
+        assert_eq!(basis.components(), 2);
+        let seen = seen.into_inner().unwrap();
+        let mut stages: Vec<&str> = seen.iter().map(|p| p.stage).collect();
+        stages.dedup();
+        let mut want = PASS_NAMES.to_vec();
+        want.push("done");
+        assert_eq!(stages, want);
+        for name in PASS_NAMES {
+            let reports: Vec<(usize, usize)> = seen
+                .iter()
+                .filter(|p| p.stage == name)
+                .map(|p| (p.done, p.total))
+                .collect();
+            assert_eq!(reports, [(0, 2), (2, 2)], "{name}");
+        }
+    }
 }

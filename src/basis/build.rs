@@ -364,6 +364,25 @@ fn accumulate_product(
     }
 }
 
+/// Centres the sketch `y` = √w·MΩ of the uncentred database, whose entries' means pass 1
+/// learns only as it goes: ÃΩ = √w·(M − mean·1ᵀ)Ω = √w·MΩ − √w·mean·(1ᵀΩ).
+fn centre_sketch(y: &mut Mat<f64>, omega: MatRef<f64>, weights: &[f64], mean: &[f64]) {
+    let omega_sums: Vec<f64> = (0..omega.ncols())
+        .map(|c| omega.col(c).iter().sum())
+        .collect();
+    y.par_row_chunks_mut(BLOCK_ROWS)
+        .enumerate()
+        .for_each(|(b, mut rows)| {
+            for r in 0..rows.nrows() {
+                let pair = b * BLOCK_ROWS + r;
+                let shift = weights[pair] * mean[pair];
+                for (c, sum) in omega_sums.iter().enumerate() {
+                    rows[(r, c)] -= shift * sum;
+                }
+            }
+        });
+}
+
 /// Builds the basis described by `spec`, reporting progress through `progress`.
 pub fn build_basis(spec: &BasisSpec, progress: &(dyn Fn(BuildProgress) + Sync)) -> Basis {
     let seed = spec.database.seed;
@@ -448,19 +467,7 @@ fn build(
             });
         stats.count += nb;
     });
-    // Centre: ÃΩ = √w·(M − mean·1ᵀ)Ω = √w·MΩ − √w·mean·(1ᵀΩ).
-    let omega_sums: Vec<f64> = (0..l).map(|c| omega.col(c).iter().sum()).collect();
-    y.par_row_chunks_mut(BLOCK_ROWS)
-        .enumerate()
-        .for_each(|(b, mut rows)| {
-            for r in 0..rows.nrows() {
-                let pair = b * BLOCK_ROWS + r;
-                let shift = weights[pair] * stats.mean[pair];
-                for c in 0..l {
-                    rows[(r, c)] -= shift * omega_sums[c];
-                }
-            }
-        });
+    centre_sketch(&mut y, omega.as_ref(), &weights, &stats.mean);
     orthonormalize(&mut y);
     let mut q = y;
 
@@ -789,7 +796,8 @@ mod tests {
     }
 
     /// The two products over one batch, against their sums written out: Z = ÃᵀQ over every
-    /// row, and Y + ÃZ (centred) or Y + √w·M·Z (uncentred) on rows at the blocks' edges.
+    /// row, and Y + ÃZ (centred) or Y + √w·M·Z (uncentred) on rows at the blocks' edges; and
+    /// pass 1's sketch, centred once the means are known, equal to the centred product.
     #[test]
     fn the_batch_products_are_the_weighted_sums_written_out() {
         let tables: Vec<Vec<[f32; 3]>> = (0..2)
@@ -819,6 +827,19 @@ mod tests {
                 let terms = (0..PAIRS).map(|p| weights[p] * (entry(p, col) - mean[p]) * q[(p, c)]);
                 let (want, scale) = terms.fold((0.0, 0.0), |(s, a), t| (s + t, a + t.abs()));
                 assert!(close(z[(col, c)], want, scale), "Z[{col}, {c}]");
+            }
+        }
+        // The centred sketch of the whole batch: the uncentred one, centred afterwards.
+        let omega = gaussian_matrix(6, l, 8);
+        let mut centred_after = Mat::<f64>::zeros(PAIRS, l);
+        accumulate_product(&mut centred_after, &batch, omega.as_ref(), &weights, None);
+        centre_sketch(&mut centred_after, omega.as_ref(), &weights, &mean);
+        let mut centred = Mat::<f64>::zeros(PAIRS, l);
+        accumulate_product(&mut centred, &batch, omega.as_ref(), &weights, Some(&mean));
+        for p in 0..PAIRS {
+            for c in 0..l {
+                let (got, want) = (centred_after[(p, c)], centred[(p, c)]);
+                assert!((got - want).abs() < 1e-9 * want.abs().max(1.0), "{p} {c}");
             }
         }
         let start = gaussian_matrix(PAIRS, l, 6);

@@ -1174,6 +1174,18 @@ mod tests {
             .collect()
     }
 
+    /// `bins`, each off by up to ±3% in a repeating pattern, so that no model fits them
+    /// exactly.
+    fn wobbled(bins: Vec<(PairIndex, [f64; 3], Bounds)>) -> Vec<(PairIndex, [f64; 3], Bounds)> {
+        bins.into_iter()
+            .enumerate()
+            .map(|(i, (pair, rho, bounds))| {
+                let wobble = 1.0 + 0.01 * ((i % 7) as f64 - 3.0);
+                (pair, rho.map(|v| v * wobble), bounds)
+            })
+            .collect()
+    }
+
     /// The fit's observations of bins, written out: the log of ρ·cos + ε, weighted by the
     /// square root of the pair's multiplicity.
     fn observations_of(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Observation> {
@@ -1476,16 +1488,9 @@ mod tests {
             ..base
         };
         for truth in [with_coat, base] {
-            // Each bin off by up to ±3%, so that two lobes always fit the noise a little
-            // better than one, though never by the margin.
-            let bins: Vec<_> = exact_bins(&truth, 2_003)
-                .into_iter()
-                .enumerate()
-                .map(|(i, (pair, rho, bounds))| {
-                    let wobble = 1.0 + 0.01 * ((i % 7) as f64 - 3.0);
-                    (pair, rho.map(|v| v * wobble), bounds)
-                })
-                .collect();
+            // Two lobes always fit the noise a little better than one, though never by the
+            // margin.
+            let bins = wobbled(exact_bins(&truth, 2_003));
             let alone = fit_lambert_microfacet_bounded(&bins, &one_lobe);
             let fit = fit_lambert_microfacet_bounded(&bins, &coated);
             let observations = observations_of(&bins);
@@ -1671,15 +1676,8 @@ mod tests {
             (one_view, false),
             (exact_bins(&plastic, 2_003), false),
         ] {
-            // Each bin off by up to ±3%, so that neither fit is exact.
-            let bins: Vec<_> = bins
-                .into_iter()
-                .enumerate()
-                .map(|(i, (pair, rho, bounds))| {
-                    let wobble = 1.0 + 0.01 * ((i % 7) as f64 - 3.0);
-                    (pair, rho.map(|v| v * wobble), bounds)
-                })
-                .collect();
+            // Neither fit is exact.
+            let bins = wobbled(bins);
             let fit = fit_lambert_microfacet_bounded(&bins, &options);
             let observations = observations_of(&bins);
             let starts = starting_points(&bins);

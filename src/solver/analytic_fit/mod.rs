@@ -26,7 +26,7 @@ use crate::basis::{MAP_EPSILON, cos_weight};
 use crate::materials::models::{cos_half_difference, schlick};
 use crate::table::{PairIndex, bin_centre, pair_directions, pair_multiplicity};
 use glam::DVec3;
-use levenberg::{ShapeFit, fit_shape, residuals};
+use levenberg::{ShapeFit, cost, fit_shape, residuals};
 use model::Prepared;
 use params::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
@@ -264,11 +264,47 @@ pub fn fit_lambert_microfacet_bounded(
             best = tinted;
         }
     }
+    let best = without_an_unseen_lobe(&observations, best);
     FitResult {
         model: best.model(),
         rms_log_residual: rms(best.cost),
         starts: tried,
         iterations,
+    }
+}
+
+/// How much the RMS log residual may grow, absolutely and relatively, when
+/// [`without_an_unseen_lobe`] drops a lobe: about what 8-bit quantisation leaves.
+const UNSEEN_LOBE_RMS_ABSOLUTE: f64 = 1e-3;
+const UNSEEN_LOBE_RMS_RELATIVE: f64 = 0.01;
+
+/// The fit without its lobe where the paint does not show it. A lobe a thousand times
+/// fainter than the diffuse follows the quantisation of 8-bit paint of a dark matte
+/// material, and Schlick's rise takes its weight, not its F0, to grazing angles, where
+/// 1/(4 cos θ_l cos θ_v) makes it outshine the material there.
+fn without_an_unseen_lobe(observations: &[Observation], fit: ShapeFit) -> ShapeFit {
+    let model = fit.model();
+    if fit.shape != Shape::one_lobe(fit.shape.distribution) || model.specular <= 1e-5 {
+        return fit;
+    }
+    let matte = LambertMicrofacet {
+        specular: 0.0,
+        ..model
+    };
+    let theta = params_of(&matte);
+    let matte_cost = cost(observations, &theta, fit.shape);
+    let residuals = 3.0 * observations.len() as f64;
+    let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
+    if rms(matte_cost)
+        <= rms(fit.cost) * (1.0 + UNSEEN_LOBE_RMS_RELATIVE) + UNSEEN_LOBE_RMS_ABSOLUTE
+    {
+        ShapeFit {
+            theta,
+            cost: matte_cost,
+            ..fit
+        }
+    } else {
+        fit
     }
 }
 
@@ -813,6 +849,49 @@ mod tests {
         bins
     }
 
+    /// 8-bit paint of a dark matte material at one θ_d: quantised, so that a lobe a
+    /// thousand times fainter than the diffuse can follow its steps. Such a lobe is dropped;
+    /// its weight would have lit the grazing angles no bin shows. A plastic's lobe, which the
+    /// paint shows, is kept.
+    #[test]
+    fn a_lobe_the_paint_does_not_show_is_dropped() {
+        let matte = LambertMicrofacet {
+            albedo: [0.048, 0.046, 0.002],
+            f0: [0.0; 3],
+            distribution: Distribution::Beckmann,
+            alpha_x: 0.22,
+            alpha_y: 0.06,
+            rotation: 2.7,
+            specular: 0.0,
+            coat: None,
+            haze: None,
+            edge: None,
+        };
+        let faint = LambertMicrofacet {
+            f0: [1e-4, 1e-4, 3e-3],
+            specular: 3e-3,
+            ..matte
+        };
+        let pairs = pairs_at_half_differences(5, &[20.0..25.0]);
+        let bins = wobbled(bins_on(&matte, &pairs));
+        let fit = shape_fit(&faint, &bins);
+        let dropped = without_an_unseen_lobe(&observations_of(&bins), fit.clone());
+        assert!(dropped.model().specular < 1e-5, "{:?}", dropped.model());
+        assert_eq!(dropped.model().albedo, fit.model().albedo);
+
+        let plastic = LambertMicrofacet {
+            f0: [0.04; 3],
+            specular: 1.0,
+            alpha_x: 0.1,
+            alpha_y: 0.1,
+            ..matte
+        };
+        let bins = wobbled(bins_on(&plastic, &pairs));
+        let fit = shape_fit(&plastic, &bins);
+        let kept = without_an_unseen_lobe(&observations_of(&bins), fit.clone());
+        assert_eq!(kept.theta, fit.theta, "the paint shows a plastic's lobe");
+    }
+
     /// 8-bit paint of a polished silver, one view: a sharp Beckmann peak, clipped, over a
     /// broad GGX glow. One lobe settles between the two (and on the glow alone where the
     /// peak is clipped); a haze holds both, and what the clipped peak's shoulders show of it
@@ -1188,6 +1267,29 @@ mod tests {
 
     /// The fit's observations of bins, written out: the log of ρ·cos + ε, weighted by the
     /// square root of the pair's multiplicity.
+    /// `model`'s exact value on `pairs`.
+    fn bins_on(
+        model: &LambertMicrofacet,
+        pairs: &[(PairIndex, DVec3, DVec3)],
+    ) -> Vec<(PairIndex, [f64; 3], Bounds)> {
+        pairs
+            .iter()
+            .map(|&(pair, l, v)| (pair, model.eval(l, v), EXACT))
+            .collect()
+    }
+
+    /// A one-lobe fit of `model` to `bins`, as the optimiser might leave it.
+    fn shape_fit(model: &LambertMicrofacet, bins: &[(PairIndex, [f64; 3], Bounds)]) -> ShapeFit {
+        let shape = Shape::one_lobe(model.distribution);
+        let theta = params_of(model);
+        ShapeFit {
+            theta,
+            cost: cost(&observations_of(bins), &theta, shape),
+            iterations: 0,
+            shape,
+        }
+    }
+
     fn observations_of(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Observation> {
         bins.iter()
             .map(|&(pair, rho, bounds)| {

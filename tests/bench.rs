@@ -50,6 +50,7 @@ fn painted_table(
 fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples() {
     let truth_model = LambertMicrofacet {
         albedo: [0.45, 0.2, 0.08],
+        sigma: 0.0,
         f0: [0.04, 0.05, 0.06],
         distribution: Distribution::Ggx,
         alpha_x: 0.12,
@@ -105,6 +106,7 @@ fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
     for distribution in [Distribution::Beckmann, Distribution::Ggx] {
         let truth_model = LambertMicrofacet {
             albedo: [0.02, 0.03, 0.03],
+            sigma: 0.0,
             f0: [0.47, 0.49, 0.49],
             distribution,
             alpha_x: 0.29,
@@ -142,6 +144,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
     };
     let coated = LambertMicrofacet {
         albedo: [0.05, 0.08, 0.2],
+        sigma: 0.0,
         f0: [0.3, 0.4, 0.7],
         distribution: Distribution::Ggx,
         alpha_x: 0.3,
@@ -321,6 +324,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             coat_margin: None,
             edge_margin: None,
             haze_margin: None,
+            rough_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

@@ -185,6 +185,7 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
             beckmann_margin,
             coat_margin,
             haze_margin,
+            rough_margin,
             ..
         } => PriorMean::Fitted {
             margin_nats,
@@ -192,6 +193,7 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
             coat_margin,
             edge_margin: None,
             haze_margin,
+            rough_margin,
         },
         PriorMean::Database => PriorMean::Database,
     };

@@ -336,6 +336,7 @@ fn a_fitted_reference_moves_the_gpu_evaluation_as_it_moves_the_engine() {
     r.set_coefficients(&x).unwrap();
     let model = LambertMicrofacet {
         albedo: [0.3, 0.2, 0.1],
+        sigma: 0.0,
         f0: [0.9, 0.6, 0.3],
         specular: 1.0,
         distribution: Distribution::Ggx,

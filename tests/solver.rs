@@ -479,6 +479,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     let basis = small_basis(20);
     let truth_brdf = LambertMicrofacet {
         albedo: [0.25, 0.15, 0.1],
+        sigma: 0.0,
         f0: [0.04; 3],
         distribution: Distribution::Ggx,
         alpha_x: 0.3,
@@ -523,6 +524,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         coat_margin: None,
         edge_margin: None,
         haze_margin: None,
+        rough_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
     fitted.apply_all(&changes);

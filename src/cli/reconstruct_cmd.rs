@@ -107,8 +107,10 @@ pub struct ReconstructArgs {
     /// has no more diffuse than specular, kept where it fits better by the factor R), and
     /// +haze or +haze:R (a metal's lobe split into a sharp peak and a broad glow of one
     /// Fresnel, tried where the fit has almost no diffuse, kept where it fits better by the
-    /// factor R; not the default yet: it lets some metals' error grow with added views). The
-    /// default, fitted:3+beckmann+edge:1.5, is what `burnish calibrate` chose.
+    /// factor R; not the default yet: it lets some metals' error grow with added views), and
+    /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
+    /// kept where it fits better by the factor R). The default,
+    /// fitted:3+beckmann+edge:1.5, is what `burnish calibrate` chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

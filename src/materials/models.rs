@@ -229,16 +229,23 @@ impl Brdf for OrenNayar {
         if !above(l, v) {
             return [0.0; 3];
         }
-        let s2 = self.sigma * self.sigma;
-        let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
-        let b = 0.45 * s2 / (s2 + 0.09);
-        let s = (l.dot(v) - l.z * v.z).max(0.0);
-        let t = l.z.max(v.z).max(MIN_COS);
-        scale3(self.albedo, FRAC_1_PI * (a + b * s / t))
+        scale3(self.albedo, oren_nayar_scale(self.sigma, l, v))
     }
     fn is_isotropic(&self) -> bool {
         true
     }
+}
+
+/// ρ of an [`OrenNayar`] surface of unit albedo and facet slope σ (radians) for a pair above
+/// the surface: exactly 1/π at σ = 0 (Lambert's).
+#[inline]
+pub fn oren_nayar_scale(sigma: f64, l: DVec3, v: DVec3) -> f64 {
+    let s2 = sigma * sigma;
+    let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    let b = 0.45 * s2 / (s2 + 0.09);
+    let s = (l.dot(v) - l.z * v.z).max(0.0);
+    let t = l.z.max(v.z).max(MIN_COS);
+    FRAC_1_PI * (a + b * s / t)
 }
 
 /// Microfacet specular reflection (Cook–Torrance / Walter et al.) with height-correlated

@@ -1,5 +1,5 @@
-//! A reference fitted to the paint itself: Lambert + a microfacet lobe (GGX, or Beckmann where
-//! [`super::PriorMean::Fitted`] asks for it) fitted to the painted bins
+//! A reference fitted to the paint itself: Lambert (or Oren–Nayar) + a microfacet lobe (GGX, or
+//! Beckmann where [`super::PriorMean::Fitted`] asks for it) fitted to the painted bins
 //! ([`super::analytic_fit`]), tabulated, and used as the table the basis then corrects.
 //!
 //! **Why.** Centred on the database's mean material, the prior fills the unpainted part of
@@ -158,12 +158,14 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             coat_margin,
             edge_margin,
             haze_margin,
+            rough_margin,
             ..
         } => FitOptions {
             beckmann_margin,
             coat_margin,
             edge_margin,
             haze_margin,
+            rough_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -185,6 +187,7 @@ mod tests {
     fn plastic() -> LambertMicrofacet {
         LambertMicrofacet {
             albedo: [0.6, 0.3, 0.1],
+            sigma: 0.0,
             f0: [0.04; 3],
             specular: 1.0,
             distribution: Distribution::Ggx,
@@ -300,12 +303,14 @@ mod tests {
             coat_margin: Some(2.0),
             edge_margin: Some(1.2),
             haze_margin: Some(1.3),
+            rough_margin: Some(1.4),
         };
         let options = fit_options(mean);
         assert_eq!(options.beckmann_margin, Some(1.5));
         assert_eq!(options.coat_margin, Some(2.0));
         assert_eq!(options.edge_margin, Some(1.2));
         assert_eq!(options.haze_margin, Some(1.3));
+        assert_eq!(options.rough_margin, Some(1.4));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

@@ -127,6 +127,10 @@ pub enum PriorMean {
         /// kept when it fits the bins better by this factor, plain and brightness-weighted
         /// (the fit's `haze_margin`); `None`: one lobe.
         haze_margin: Option<f64>,
+        /// The diffuse is Oren–Nayar's of fitted slope rather than Lambert's when that fits the
+        /// bins better by this factor, plain and brightness-weighted (the fit's
+        /// `rough_margin`); `None`: Lambert's.
+        rough_margin: Option<f64>,
     },
 }
 
@@ -251,6 +255,7 @@ impl PriorMean {
         coat_margin: None,
         edge_margin: Some(1.5),
         haze_margin: None,
+        rough_margin: None,
     };
 
     pub fn name(&self) -> String {
@@ -262,6 +267,7 @@ impl PriorMean {
                 coat_margin,
                 edge_margin,
                 haze_margin,
+                rough_margin,
             } => {
                 let mut name = if *margin_nats == f64::NEG_INFINITY {
                     "fitted".to_string()
@@ -273,6 +279,7 @@ impl PriorMean {
                     (COAT, coat_margin),
                     (EDGE, edge_margin),
                     (HAZE, haze_margin),
+                    (ROUGH, rough_margin),
                 ] {
                     match margin {
                         None => {}
@@ -292,6 +299,7 @@ const BECKMANN: &str = "beckmann";
 const COAT: &str = "coat";
 const EDGE: &str = "edge";
 const HAZE: &str = "haze";
+const ROUGH: &str = "rough";
 
 impl std::fmt::Display for PriorMean {
     /// The name [`std::str::FromStr`] reads back.
@@ -306,12 +314,14 @@ impl std::str::FromStr for PriorMean {
     /// either fitted one followed by any of `+beckmann` (a Beckmann lobe when it fits
     /// better), `+beckmann:R` (when it fits R times better), `+coat` and `+coat:R`
     /// (a clear coat over the lobe, likewise), `+edge` and `+edge:R` (a conductor's Fresnel
-    /// with an edge tint, likewise).
+    /// with an edge tint, likewise), `+haze[:R]` (a haze beside a metal's lobe) and
+    /// `+rough[:R]` (an Oren–Nayar diffuse).
     fn from_str(s: &str) -> Result<Self, String> {
         let mut parts = s.split('+');
         let fitted = parts.next().unwrap_or_default();
         let (mut beckmann_margin, mut coat_margin, mut edge_margin, mut haze_margin) =
             (None, None, None, None);
+        let mut rough_margin = None;
         for option in parts {
             let (name, margin) = match option.split_once(':') {
                 None => (option, Some(1.0)),
@@ -325,9 +335,10 @@ impl std::str::FromStr for PriorMean {
                 COAT => &mut coat_margin,
                 EDGE => &mut edge_margin,
                 HAZE => &mut haze_margin,
+                ROUGH => &mut rough_margin,
                 _ => {
                     return Err(format!(
-                        "'{option}' is not a lobe option (beckmann, coat, edge, haze, each with an optional :R)"
+                        "'{option}' is not a fit option (beckmann, coat, edge, haze, rough, each with an optional :R)"
                     ));
                 }
             };
@@ -340,7 +351,8 @@ impl std::str::FromStr for PriorMean {
         let options = beckmann_margin.is_some()
             || coat_margin.is_some()
             || edge_margin.is_some()
-            || haze_margin.is_some();
+            || haze_margin.is_some()
+            || rough_margin.is_some();
         let margin_nats = match fitted.split_once(':') {
             None if fitted == "database" && !options => {
                 return Ok(Self::Database);
@@ -353,7 +365,7 @@ impl std::str::FromStr for PriorMean {
             _ => {
                 return Err(format!(
                     "unknown prior mean '{s}' (database, fitted, fitted:M, each fitted one \
-                     with optional +beckmann[:R], +coat[:R], +edge[:R] and +haze[:R])"
+                     with optional +beckmann[:R], +coat[:R], +edge[:R], +haze[:R] and +rough[:R])"
                 ));
             }
         };
@@ -363,6 +375,7 @@ impl std::str::FromStr for PriorMean {
             coat_margin,
             edge_margin,
             haze_margin,
+            rough_margin,
         })
     }
 }
@@ -588,6 +601,7 @@ mod tests {
                 coat_margin: None,
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 3.0,
@@ -595,6 +609,7 @@ mod tests {
                 coat_margin: Some(1.0),
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: -2.5,
@@ -602,6 +617,7 @@ mod tests {
                 coat_margin: None,
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: f64::NEG_INFINITY,
@@ -609,6 +625,7 @@ mod tests {
                 coat_margin: Some(1.5),
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 3.0,
@@ -616,6 +633,7 @@ mod tests {
                 coat_margin: None,
                 edge_margin: Some(1.2),
                 haze_margin: None,
+                rough_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 3.0,
@@ -623,6 +641,15 @@ mod tests {
                 coat_margin: None,
                 edge_margin: None,
                 haze_margin: Some(2.0),
+                rough_margin: None,
+            },
+            PriorMean::Fitted {
+                margin_nats: 1.0,
+                beckmann_margin: None,
+                coat_margin: None,
+                edge_margin: Some(1.5),
+                haze_margin: None,
+                rough_margin: Some(1.1),
             },
             PriorMean::FITTED,
         ] {
@@ -636,6 +663,7 @@ mod tests {
                 coat_margin: None,
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             })
         );
         assert_eq!(
@@ -646,6 +674,7 @@ mod tests {
                 coat_margin: Some(1.2),
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             })
         );
         // As written on the command line: a margin of 1 as the bare option, and Display the
@@ -659,6 +688,7 @@ mod tests {
                 coat_margin: Some(1.25),
                 edge_margin: Some(1.0),
                 haze_margin: None,
+                rough_margin: None,
             }
             .to_string(),
             "fitted+beckmann+coat:1.25+edge"
@@ -671,8 +701,21 @@ mod tests {
                 coat_margin: None,
                 edge_margin: Some(1.0),
                 haze_margin: Some(1.0),
+                rough_margin: None,
             })
         );
+        assert_eq!(
+            "fitted:2+rough".parse::<PriorMean>(),
+            Ok(PriorMean::Fitted {
+                margin_nats: 2.0,
+                beckmann_margin: None,
+                coat_margin: None,
+                edge_margin: None,
+                haze_margin: None,
+                rough_margin: Some(1.0),
+            })
+        );
+        assert!("fitted+rough:0".parse::<PriorMean>().is_err());
         assert!("fitted+haze+haze:2".parse::<PriorMean>().is_err());
         assert_eq!(PriorMean::Database.to_string(), "database");
         assert!("fitted+beckmann+beckmann:2".parse::<PriorMean>().is_err());

@@ -261,6 +261,7 @@ mod tests {
             basis.clone(),
             LambertMicrofacet {
                 albedo: [0.5, 0.3, 0.2],
+                sigma: 0.0,
                 f0: [0.05; 3],
                 specular: 1.0,
                 distribution: Distribution::Ggx,

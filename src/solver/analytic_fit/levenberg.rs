@@ -2,7 +2,7 @@
 //! Jacobian summed in deterministic chunks, and damped steps from several starts.
 
 use super::model::{LambertMicrofacet, Prepared};
-use super::params::{COAT_SHAPE, P, Params, SHAPE, Shape, model_of};
+use super::params::{COAT_SHAPE, P, Params, SHAPE, SIGMA, Shape, model_of};
 use super::{FitOptions, Observation};
 use crate::basis::MAP_EPSILON;
 use crate::materials::models::{Fresnel, Microfacet, above, cos_half_difference};
@@ -111,13 +111,15 @@ pub(super) struct Stepped {
     pub(super) fresnel: Fresnel,
     pub(super) lobe: Option<Microfacet>,
     pub(super) second: Option<Microfacet>,
+    /// Whether the step moves the diffuse's slope.
+    pub(super) diffuse: bool,
     pub(super) h: f64,
 }
 
 /// JᵀJ, Jᵀr and ½‖r‖² at `theta`, with a forward-difference Jacobian, summed in chunk order.
 /// Only a lobe's shape (the first's two roughnesses and turn, the second's roughness) changes
-/// its D·G, so a bin evaluates each lobe once at `theta` and once per shape step rather than
-/// once per parameter; every stepped ρ is still the bits [`Brdf::eval`] would give.
+/// its D·G, and only the diffuse's slope its Oren–Nayar term, so a bin evaluates each once at
+/// `theta` and once per step of its own parameters rather than once per parameter; every stepped ρ is still the bits [`Brdf::eval`] would give.
 pub(super) fn normal_equations(
     observations: &[Observation],
     theta: &Params,
@@ -139,6 +141,7 @@ pub(super) fn normal_equations(
                 lobe: SHAPE.contains(&i).then(|| model.parts().1),
                 // A haze's lobe carries the first's Fresnel, which its D·G does not use.
                 second: (i == COAT_SHAPE).then(|| model.second_part()).flatten(),
+                diffuse: i == SIGMA,
                 fresnel: model.fresnel(),
                 model,
                 h: t[i] - theta[i],
@@ -158,7 +161,9 @@ pub(super) fn normal_equations(
                 let dg_second = second
                     .as_ref()
                     .map_or(0.0, |s| s.eval_unit_fresnel(o.l, o.v));
-                let rho = base.eval_from_lobes(&lobe.fresnel, visible, dg, dg_second, cos_d);
+                let diffuse = base.diffuse_scale(o.l, o.v);
+                let rho =
+                    base.eval_from_lobes(&lobe.fresnel, visible, diffuse, dg, dg_second, cos_d);
                 let r = residuals_of(rho, o);
                 let mut jac = [[0.0; P]; 3];
                 for (j, step) in stepped.iter().enumerate() {
@@ -170,9 +175,19 @@ pub(super) fn normal_equations(
                         .second
                         .as_ref()
                         .map_or(dg_second, |moved| moved.eval_unit_fresnel(o.l, o.v));
-                    let rho =
-                        step.model
-                            .eval_from_lobes(&step.fresnel, visible, dg, dg_second, cos_d);
+                    let diffuse = if step.diffuse {
+                        step.model.diffuse_scale(o.l, o.v)
+                    } else {
+                        diffuse
+                    };
+                    let rho = step.model.eval_from_lobes(
+                        &step.fresnel,
+                        visible,
+                        diffuse,
+                        dg,
+                        dg_second,
+                        cos_d,
+                    );
                     let rp = residuals_of(rho, o);
                     for ch in 0..3 {
                         jac[ch][j] = (rp[ch] - r[ch]) / step.h;
@@ -286,6 +301,7 @@ mod tests {
 
     const PLASTIC: LambertMicrofacet = LambertMicrofacet {
         albedo: [0.3, 0.2, 0.6],
+        sigma: 0.0,
         f0: [0.05, 0.04, 0.06],
         distribution: Distribution::Ggx,
         alpha_x: 0.15,

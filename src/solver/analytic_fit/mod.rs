@@ -1,6 +1,7 @@
 //! The analytic baseline: Lambert plus an anisotropic microfacet lobe (GGX, and where asked
-//! Beckmann beside it) fitted by Levenberg–Marquardt to the same binned samples the sparse
-//! solver sees, as tools like BRDFLab fit analytic models.
+//! Beckmann beside it, and where asked an Oren–Nayar diffuse instead of Lambert's) fitted by
+//! Levenberg–Marquardt to the same binned samples the sparse solver sees, as tools like
+//! BRDFLab fit analytic models.
 //!
 //! The residual of a bin is ln((ρ̂c + ε)/(ρc + ε)) per channel, weighted by the bin's pair
 //! multiplicity: the log-mapped domain and weights the basis and its solver use, so both
@@ -75,6 +76,10 @@ pub struct FitOptions {
     /// lobe. Tried only where the chosen fit is a metal's (no more diffuse than a tenth of
     /// F0) without a coat.
     pub haze_margin: Option<f64>,
+    /// Also fit an Oren–Nayar diffuse (its facet slope fitted) under the chosen lobe, and
+    /// keep it when its RMS log residual and its brightness-weighted one are both below
+    /// Lambert's divided by this factor; `None`: Lambert's.
+    pub rough_margin: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -88,6 +93,7 @@ impl Default for FitOptions {
             coat_margin: None,
             edge_margin: None,
             haze_margin: None,
+            rough_margin: None,
         }
     }
 }
@@ -179,6 +185,44 @@ pub fn fit_lambert_microfacet_bounded(
         // misses the peak, and a second view would only pull it further onto the haze.
         if score(beckmann).beats(score(&best), margin) {
             best = beckmann.clone();
+        }
+    }
+    if let Some(margin) = options.rough_margin {
+        // Lambert's diffuse is flat, where a rough one (clay, plaster, cloth) brightens toward
+        // the light and darkens at grazing view. Each view adds pairs Lambert misses in its
+        // own way, so a Lambert fit of such a surface gets worse, not better, as views are
+        // added, and the evidence then turns to the database's mean. Only the diffuse moves:
+        // freed from standing in for a rough diffuse, a lobe chased a varnish's mirror peak
+        // to the narrowest roughness, and the correction then took the peak's residual to
+        // grazing angles 50 times above the truth (one view 0.95 → 28). Each slope also
+        // starts without the lobe: a lobe fitted beside Lambert may only be standing in for
+        // the rough diffuse's rise toward the light.
+        let starts: Vec<Params> = ROUGH_DIFFUSE_STARTS
+            .iter()
+            .flat_map(|&sigma| {
+                let mut theta = best.theta;
+                theta[SIGMA] = logit(sigma / SIGMA_MAX);
+                let mut matte = theta;
+                matte[9] = logit(0.0);
+                [theta, matte]
+            })
+            .collect();
+        let shape = Shape {
+            rough_diffuse: true,
+            diffuse_only: true,
+            ..best.shape
+        };
+        let rough = fit_shape(&observations, &starts, shape, options);
+        iterations += rough.iterations;
+        tried += starts.len();
+        if score(&rough).beats(score(&best), margin) {
+            best = ShapeFit {
+                shape: Shape {
+                    diffuse_only: false,
+                    ..shape
+                },
+                ..rough
+            };
         }
     }
     if let Some(margin) = options.coat_margin {
@@ -273,6 +317,9 @@ pub fn fit_lambert_microfacet_bounded(
     }
 }
 
+/// The Oren–Nayar slopes (radians) a rough diffuse starts from: a moderate and a strong one.
+const ROUGH_DIFFUSE_STARTS: [f64; 2] = [0.3, 0.8];
+
 /// How much the RMS log residual may grow, absolutely and relatively, when
 /// [`without_an_unseen_lobe`] drops a lobe: about what 8-bit quantisation leaves.
 const UNSEEN_LOBE_RMS_ABSOLUTE: f64 = 1e-3;
@@ -284,7 +331,11 @@ const UNSEEN_LOBE_RMS_RELATIVE: f64 = 0.01;
 /// 1/(4 cos θ_l cos θ_v) makes it outshine the material there.
 fn without_an_unseen_lobe(observations: &[Observation], fit: ShapeFit) -> ShapeFit {
     let model = fit.model();
-    if fit.shape != Shape::one_lobe(fit.shape.distribution) || model.specular <= 1e-5 {
+    let one_lobe = Shape {
+        rough_diffuse: fit.shape.rough_diffuse,
+        ..Shape::one_lobe(fit.shape.distribution)
+    };
+    if fit.shape != one_lobe || model.specular <= 1e-5 {
         return fit;
     }
     let matte = LambertMicrofacet {
@@ -483,6 +534,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
         for alpha in [0.03, 0.1, 0.3, 0.7] {
             starts.push(params_of(&LambertMicrofacet {
                 albedo: albedo.map(|a| a.max(0.01)),
+                sigma: 0.0,
                 f0: [f0; 3],
                 distribution: Distribution::Ggx,
                 alpha_x: alpha,
@@ -499,6 +551,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
     for alpha in [0.1, 0.4] {
         starts.push(params_of(&LambertMicrofacet {
             albedo: albedo.map(|a| a.max(0.01)),
+            sigma: 0.0,
             f0: [0.04; 3],
             distribution: Distribution::Ggx,
             alpha_x: alpha,
@@ -512,6 +565,7 @@ fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
     }
     for rotation in [0.0, FRAC_PI_4, FRAC_PI_2, 3.0 * FRAC_PI_4] {
         starts.push(params_of(&LambertMicrofacet {
+            sigma: 0.0,
             albedo,
             f0: [0.04; 3],
             distribution: Distribution::Ggx,
@@ -537,6 +591,7 @@ mod tests {
     /// Anisotropic, tinted, neither dielectric nor metal.
     const MIXED: LambertMicrofacet = LambertMicrofacet {
         albedo: [0.2, 0.5, 0.9],
+        sigma: 0.0,
         f0: [0.04, 0.3, 0.95],
         distribution: Distribution::Ggx,
         alpha_x: 0.02,
@@ -549,7 +604,8 @@ mod tests {
     };
 
     /// `eval` (through `eval_from_lobes`, which the fit's Jacobian reuses) is the library's
-    /// Lambert plus microfacet lobe to the bit, above and below the horizon.
+    /// Lambert (or Oren–Nayar) diffuse plus microfacet lobe to the bit, above and below the
+    /// horizon.
     #[test]
     fn evaluation_is_lambert_plus_the_library_lobe_to_the_bit() {
         use crate::table::PAIRS;
@@ -557,6 +613,7 @@ mod tests {
             MIXED,
             LambertMicrofacet {
                 albedo: [0.0; 3],
+                sigma: 0.0,
                 f0: [0.9; 3],
                 distribution: Distribution::Beckmann,
                 alpha_x: 0.01,
@@ -569,6 +626,10 @@ mod tests {
             },
             LambertMicrofacet {
                 edge: Some([0.2, 0.6, 1.0]),
+                ..MIXED
+            },
+            LambertMicrofacet {
+                sigma: 0.7,
                 ..MIXED
             },
         ];
@@ -605,13 +666,29 @@ mod tests {
         let extreme = model_of(
             &[
                 1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3, 0.0, 0.0, 1e3, -1e3, 0.0,
+                1e3,
             ],
             Shape {
                 edge: true,
+                rough_diffuse: true,
                 ..Shape::one_lobe(Distribution::Ggx)
             },
         );
         assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
+        assert!(extreme.sigma <= SIGMA_MAX && SIGMA_MAX - extreme.sigma < 1e-12);
+        assert_eq!(
+            back.sigma, 0.0,
+            "Lambert's diffuse unless the shape varies it"
+        );
+        let rough = LambertMicrofacet {
+            sigma: 0.55,
+            ..MIXED
+        };
+        let shape = Shape {
+            rough_diffuse: true,
+            ..Shape::one_lobe(rough.distribution)
+        };
+        assert!((model_of(&params_of(&rough), shape).sigma - 0.55).abs() < 1e-9);
         assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));
         let edge = extreme.edge.expect("an edge tint");
         assert!(edge.iter().all(|g| (0.0..=1.0).contains(g)));
@@ -648,6 +725,7 @@ mod tests {
                     -1e3,
                     0.0,
                     1e3,
+                    0.0,
                 ],
                 shape,
             );
@@ -857,6 +935,7 @@ mod tests {
     fn a_lobe_the_paint_does_not_show_is_dropped() {
         let matte = LambertMicrofacet {
             albedo: [0.048, 0.046, 0.002],
+            sigma: 0.0,
             f0: [0.0; 3],
             distribution: Distribution::Beckmann,
             alpha_x: 0.22,
@@ -1561,6 +1640,73 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// An Oren–Nayar diffuse is fitted under the chosen lobe, which it leaves where it was or
+    /// drops, and is kept only where it fits the paint better by the margin: a matte clay's
+    /// slope is found exactly, a glazed one's diffuse turns rough under the glaze's lobe, and a
+    /// Lambertian plastic, whose paint only a pattern of errors keeps from being exact, stays
+    /// Lambert's.
+    #[test]
+    fn a_rough_diffuse_is_fitted_under_the_lobe_and_kept_only_where_it_fits_better() {
+        let lambert_only = FitOptions::default();
+        let rough = FitOptions {
+            rough_margin: Some(1.05),
+            ..lambert_only
+        };
+        let starts = 2 * ROUGH_DIFFUSE_STARTS.len();
+        let matte = LambertMicrofacet {
+            albedo: [0.6, 0.35, 0.2],
+            sigma: 0.5,
+            specular: 0.0,
+            ..MIXED
+        };
+        let bins = exact_bins(&matte, 3_001);
+        let alone = fit_lambert_microfacet_bounded(&bins, &lambert_only);
+        let fit = fit_lambert_microfacet_bounded(&bins, &rough);
+        assert_eq!(alone.model.sigma, 0.0);
+        assert_eq!(fit.starts, alone.starts + starts);
+        assert!((fit.model.sigma - 0.5).abs() < 0.01, "{:?}", fit.model);
+        assert!(
+            fit.rms_log_residual < 1e-3 && alone.rms_log_residual > 0.02,
+            "{} against Lambert's {}",
+            fit.rms_log_residual,
+            alone.rms_log_residual
+        );
+
+        let glazed = LambertMicrofacet {
+            f0: [0.04; 3],
+            alpha_x: 0.3,
+            alpha_y: 0.3,
+            specular: 1.0,
+            ..matte
+        };
+        let bins = exact_bins(&glazed, 3_001);
+        let alone = fit_lambert_microfacet_bounded(&bins, &lambert_only);
+        let fit = fit_lambert_microfacet_bounded(&bins, &rough);
+        assert!(fit.model.sigma > 0.2, "{:?}", fit.model);
+        assert!(fit.rms_log_residual * 1.05 < alone.rms_log_residual);
+        let lobe_held = LambertMicrofacet {
+            albedo: fit.model.albedo,
+            sigma: fit.model.sigma,
+            ..alone.model
+        };
+        assert!(
+            fit.model == lobe_held || fit.model.specular < 1e-5,
+            "{:?} from {:?}",
+            fit.model,
+            alone.model
+        );
+
+        let plastic = LambertMicrofacet {
+            sigma: 0.0,
+            ..glazed
+        };
+        let bins = wobbled(exact_bins(&plastic, 3_001));
+        let alone = fit_lambert_microfacet_bounded(&bins, &lambert_only);
+        let fit = fit_lambert_microfacet_bounded(&bins, &rough);
+        assert_eq!(fit.model, alone.model);
+        assert_eq!(fit.starts, alone.starts + starts);
     }
 
     /// A coat is fitted over the chosen lobe and kept only where it fits the paint better by

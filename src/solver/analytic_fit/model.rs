@@ -1,19 +1,22 @@
-//! The fitted model: Lambert plus a microfacet lobe, with an optional clear coat or haze
+//! The fitted model: Lambert (or Oren–Nayar) diffuse plus a microfacet lobe, with an optional clear coat or haze
 //! and an edge-tinted conductor's Fresnel, and its evaluation prepared once per model.
 
 use crate::materials::Brdf;
 use crate::materials::models::{
-    Distribution, Fresnel, Lambert, Microfacet, above, cos_half_difference, schlick,
+    Distribution, Fresnel, Microfacet, OrenNayar, above, cos_half_difference, oren_nayar_scale,
+    schlick,
 };
 use glam::DVec3;
-use std::f64::consts::FRAC_1_PI;
 
 /// Lambertian albedo plus an anisotropic microfacet lobe (GGX or Beckmann) with Schlick
 /// Fresnel, weighted.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LambertMicrofacet {
-    /// Diffuse albedo per channel (ρ_d = albedo/π).
+    /// Diffuse albedo per channel (ρ_d = albedo/π where `sigma` is 0).
     pub albedo: [f64; 3],
+    /// The diffuse's Oren–Nayar facet slope σ (radians; [`FitOptions::rough_margin`]); 0:
+    /// Lambert's.
+    pub sigma: f64,
     /// Specular reflectance at normal incidence per channel.
     pub f0: [f64; 3],
     /// The lobe's weight in [0, 1] (1: Schlick's Fresnel alone). Schlick's grazing rise
@@ -87,12 +90,13 @@ pub struct Haze {
 }
 
 impl LambertMicrofacet {
-    /// The model as the library's Lambert and microfacet lobe, whose sum [`Brdf::eval`]
-    /// computes through [`Self::eval_from_lobes`].
-    pub(super) fn parts(&self) -> (Lambert, Microfacet) {
+    /// The model as the library's Oren–Nayar diffuse (Lambert's bits where `sigma` is 0) and
+    /// microfacet lobe, whose sum [`Brdf::eval`] computes through [`Self::eval_from_lobes`].
+    pub(super) fn parts(&self) -> (OrenNayar, Microfacet) {
         (
-            Lambert {
+            OrenNayar {
                 albedo: self.albedo,
+                sigma: self.sigma,
             },
             Microfacet {
                 distribution: self.distribution,
@@ -103,6 +107,12 @@ impl LambertMicrofacet {
                 tint: [self.specular; 3],
             },
         )
+    }
+
+    /// The diffuse's ρ at unit albedo for a pair above the surface: 1/π where `sigma` is 0.
+    #[inline]
+    pub(super) fn diffuse_scale(&self, l: DVec3, v: DVec3) -> f64 {
+        oren_nayar_scale(self.sigma, l, v)
     }
 
     /// The first lobe's Fresnel: Schlick's from F0, or with an edge tint the conductor it names.
@@ -135,7 +145,8 @@ impl LambertMicrofacet {
         coat.or(haze)
     }
 
-    /// ρ from each lobe's D·G/(4 cos θ_l cos θ_v) (`dg` and `dg_second`, as
+    /// ρ from the diffuse's ρ at unit albedo (`diffuse`, [`Self::diffuse_scale`]), each lobe's
+    /// D·G/(4 cos θ_l cos θ_v) (`dg` and `dg_second`, as
     /// [`Microfacet::eval_unit_fresnel`] gives them; the second is ignored without a second
     /// lobe), the first lobe's Fresnel (`self.fresnel()`, worked out once per model rather
     /// than per bin) and the half-difference cosine. [`Brdf::eval`] is this, so the fit can
@@ -146,6 +157,7 @@ impl LambertMicrofacet {
         &self,
         fresnel: &Fresnel,
         visible: bool,
+        diffuse: f64,
         dg: f64,
         dg_second: f64,
         cos_d: f64,
@@ -167,7 +179,7 @@ impl LambertMicrofacet {
             } else {
                 self.specular * fresnel[c] * dg
             };
-            let mut rho = self.albedo[c] * FRAC_1_PI + specular;
+            let mut rho = self.albedo[c] * diffuse + specular;
             if let Some(second) = self.coat
                 && dg_second != 0.0
             {
@@ -204,6 +216,7 @@ impl Prepared {
         self.model.eval_from_lobes(
             &self.lobe.fresnel,
             above(l, v),
+            self.model.diffuse_scale(l, v),
             self.lobe.eval_unit_fresnel(l, v),
             dg_second,
             cos_half_difference(l, v),
@@ -224,9 +237,11 @@ impl Brdf for LambertMicrofacet {
 mod tests {
     use super::*;
     use crate::materials::models::fresnel_conductor;
+    use std::f64::consts::FRAC_1_PI;
 
     const PLASTIC: LambertMicrofacet = LambertMicrofacet {
         albedo: [0.4, 0.2, 0.1],
+        sigma: 0.0,
         f0: [0.04; 3],
         specular: 0.8,
         distribution: Distribution::Ggx,
@@ -337,10 +352,10 @@ mod tests {
             assert_eq!(model.eval(up, down), [0.0; 3]);
             assert_eq!(model.eval(down, up), [0.0; 3]);
             let fresnel = model.fresnel();
-            let rho = model.eval_from_lobes(&fresnel, true, 0.0, 0.0, 0.5);
+            let rho = model.eval_from_lobes(&fresnel, true, FRAC_1_PI, 0.0, 0.0, 0.5);
             assert_eq!(rho, model.albedo.map(|a| a * FRAC_1_PI));
             assert_eq!(
-                model.eval_from_lobes(&fresnel, false, 1.0, 1.0, 0.5),
+                model.eval_from_lobes(&fresnel, false, FRAC_1_PI, 1.0, 1.0, 0.5),
                 [0.0; 3]
             );
         }
@@ -353,8 +368,8 @@ mod tests {
             ..PLASTIC
         };
         let fresnel = coated.fresnel();
-        let without = coated.eval_from_lobes(&fresnel, true, 0.5, 0.0, 0.7);
-        let with = coated.eval_from_lobes(&fresnel, true, 0.5, 2.0, 0.7);
+        let without = coated.eval_from_lobes(&fresnel, true, FRAC_1_PI, 0.5, 0.0, 0.7);
+        let with = coated.eval_from_lobes(&fresnel, true, FRAC_1_PI, 0.5, 2.0, 0.7);
         for c in 0..3 {
             let lobe = 0.8 * schlick(0.04, 0.7) * 0.5;
             assert!((without[c] - (PLASTIC.albedo[c] * FRAC_1_PI + lobe)).abs() < 1e-15);
@@ -374,7 +389,7 @@ mod tests {
             ..PLASTIC
         };
         let fresnel = hazy.fresnel();
-        let rho = hazy.eval_from_lobes(&fresnel, true, 2.0, 0.4, 0.6);
+        let rho = hazy.eval_from_lobes(&fresnel, true, FRAC_1_PI, 2.0, 0.4, 0.6);
         for c in 0..3 {
             let mixed = 0.75 * 2.0 + 0.25 * 0.4;
             let want = PLASTIC.albedo[c] * FRAC_1_PI + 0.8 * schlick(0.04, 0.6) * mixed;

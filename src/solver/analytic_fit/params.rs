@@ -1,5 +1,5 @@
 //! The fit's unconstrained parameters: logistic albedo, F0, share and edge tint, logistic
-//! log-roughness, and which of them a lobe shape varies.
+//! log-roughness, the diffuse's logistic Oren–Nayar slope, and which of them a shape varies.
 
 use super::model::{Coat, Haze, LambertMicrofacet};
 use crate::materials::models::Distribution;
@@ -15,7 +15,11 @@ pub(super) const P_ONE: usize = 10;
 pub(super) const P_COAT: usize = 12;
 /// With an edge tint: its three logits after those.
 pub(super) const EDGE: usize = P_COAT;
-pub(super) const P: usize = EDGE + 3;
+/// With a rough diffuse: the logit of its Oren–Nayar slope within [0, [`SIGMA_MAX`]] last.
+pub(super) const SIGMA: usize = EDGE + 3;
+pub(super) const P: usize = SIGMA + 1;
+/// The roughest diffuse: Oren–Nayar's A and B have all but levelled off by a slope of
+/// 1.2 rad, and the database's rough diffuse reaches 1.
 /// The parameters D·G of the first lobe depends on (its roughnesses and turn), and that of
 /// the second (its roughness).
 pub(super) const SHAPE: [usize; 3] = [6, 7, 8];
@@ -31,6 +35,8 @@ pub(super) const COAT_F0_MAX: f64 = 0.08;
 /// A parameter vector; the fit varies only the entries [`Shape::active`] lists.
 pub(super) type Params = [f64; P];
 
+pub(super) const SIGMA_MAX: f64 = 1.2;
+
 /// What the fit varies beyond one lobe's ten parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Shape {
@@ -42,6 +48,11 @@ pub(super) struct Shape {
     pub(super) haze: Option<Distribution>,
     /// An edge tint per channel (a conductor's exact Fresnel instead of Schlick's).
     pub(super) edge: bool,
+    /// An Oren–Nayar diffuse of fitted slope instead of Lambert's.
+    pub(super) rough_diffuse: bool,
+    /// Only the diffuse varies (its albedo, and its slope where it is rough): every lobe
+    /// parameter stays where it is.
+    pub(super) diffuse_only: bool,
 }
 
 impl Shape {
@@ -51,6 +62,8 @@ impl Shape {
             two_lobes: false,
             haze: None,
             edge: false,
+            rough_diffuse: false,
+            diffuse_only: false,
         }
     }
 
@@ -64,12 +77,22 @@ impl Shape {
                 n += 1;
             }
         };
+        if self.diffuse_only {
+            take(0..3);
+            if self.rough_diffuse {
+                take(SIGMA..P);
+            }
+            return (indices, n);
+        }
         take(0..P_ONE);
         if self.two_lobes || self.haze.is_some() {
             take(P_ONE..P_COAT);
         }
         if self.edge {
-            take(EDGE..P);
+            take(EDGE..SIGMA);
+        }
+        if self.rough_diffuse {
+            take(SIGMA..P);
         }
         (indices, n)
     }
@@ -101,9 +124,16 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
         two_lobes,
         haze,
         edge,
+        rough_diffuse,
+        ..
     } = shape;
     LambertMicrofacet {
         albedo: [0, 1, 2].map(|c| logistic(theta[c])),
+        sigma: if rough_diffuse {
+            SIGMA_MAX * logistic(theta[SIGMA])
+        } else {
+            0.0
+        },
         f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
         distribution,
         alpha_x: alpha_of(theta[6]),
@@ -162,6 +192,7 @@ pub(super) fn params_of(model: &LambertMicrofacet) -> Params {
     theta[7] = alpha_param(model.alpha_y);
     theta[8] = model.rotation;
     theta[9] = logit(model.specular);
+    theta[SIGMA] = logit(model.sigma / SIGMA_MAX);
     if let Some(second) = model.coat {
         let grey = (second.f0[0] + second.f0[1] + second.f0[2]) / 3.0;
         theta[P_ONE] = logit((grey - COAT_F0_MIN) / (COAT_F0_MAX - COAT_F0_MIN));
@@ -204,7 +235,7 @@ mod tests {
             ),
             (
                 Shape { edge: true, ..one },
-                (0..P_ONE).chain(EDGE..P).collect(),
+                (0..P_ONE).chain(EDGE..SIGMA).collect(),
             ),
             (
                 Shape {
@@ -212,7 +243,39 @@ mod tests {
                     edge: true,
                     ..one
                 },
+                (0..SIGMA).collect(),
+            ),
+            (
+                Shape {
+                    rough_diffuse: true,
+                    ..one
+                },
+                (0..P_ONE).chain(SIGMA..P).collect(),
+            ),
+            (
+                Shape {
+                    two_lobes: true,
+                    edge: true,
+                    rough_diffuse: true,
+                    ..one
+                },
                 (0..P).collect(),
+            ),
+            (
+                Shape {
+                    edge: true,
+                    rough_diffuse: true,
+                    diffuse_only: true,
+                    ..one
+                },
+                (0..3).chain(SIGMA..P).collect(),
+            ),
+            (
+                Shape {
+                    diffuse_only: true,
+                    ..one
+                },
+                (0..3).collect(),
             ),
         ];
         for (shape, expected) in cases {

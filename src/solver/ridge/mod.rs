@@ -1245,6 +1245,7 @@ mod tests {
     fn plastic(roughness: f64) -> LambertMicrofacet {
         LambertMicrofacet {
             albedo: [0.6, 0.3, 0.1],
+            sigma: 0.0,
             f0: [0.04; 3],
             specular: 1.0,
             distribution: Distribution::Ggx,
@@ -1288,6 +1289,7 @@ mod tests {
                 coat_margin: None,
                 edge_margin: None,
                 haze_margin: None,
+                rough_margin: None,
             },
             ..MODEL
         }

@@ -110,7 +110,7 @@ pub struct ReconstructArgs {
     /// factor R; not the default yet: it lets some metals' error grow with added views), and
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R). The default,
-    /// fitted:3+beckmann+edge:1.5, is what `burnish calibrate` chose.
+    /// fitted:3+beckmann+edge:1.5+rough:1.2, is what `burnish calibrate` chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -534,3 +534,30 @@ fn nan_and_negative_paint_on_the_object_is_refused() {
     }
     assert!(!table.exists(), "no table from a refused painting");
 }
+
+/// `burnish eval … | head -1`: when the reader of stdout has gone, the command stops quietly
+/// (exit 0, nothing on stderr) instead of panicking on the broken pipe. The pipe's read end is
+/// closed before the binary starts, so its first write always fails.
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    use burnish::materials::{models::Lambert, tabulate};
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("lambert.exr");
+    let lambert = Lambert {
+        albedo: [0.5, 0.4, 0.3],
+    };
+    burnish::table::exr_file::write_table_exr(&table, &tabulate(&lambert)).unwrap();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let o = Command::new(env!("CARGO_BIN_EXE_burnish"))
+        .args(["eval", "--truth", path_str(&table), "--estimate"])
+        .arg(&table)
+        .env("BURNISH_CACHE_DIR", dir.path().join("cache"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(writer)
+        .output()
+        .expect("the binary runs");
+    let stderr = text(&o.stderr);
+    assert!(o.status.success(), "{:?}: {stderr}", o.status);
+    assert!(stderr.is_empty(), "nothing on stderr, got: {stderr}");
+}

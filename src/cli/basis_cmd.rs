@@ -20,25 +20,25 @@ pub fn run(args: &BasisArgs) -> anyhow::Result<()> {
         cache.load_or_build(&spec, args.rebuild, &super::basis_progress_bar())?;
     let elapsed = start.elapsed();
     match outcome {
-        CacheOutcome::Loaded => println!(
+        CacheOutcome::Loaded => outln!(
             "loaded cached basis in {:.1} ms",
             elapsed.as_secs_f64() * 1e3
         ),
-        CacheOutcome::Built => println!("built basis in {:.1} s", elapsed.as_secs_f64()),
+        CacheOutcome::Built => outln!("built basis in {:.1} s", elapsed.as_secs_f64()),
         CacheOutcome::NotStored { reason } => eprintln!(
             "built basis in {:.1} s, but it could not be cached, so the next run builds it \
              again: {reason}",
             elapsed.as_secs_f64()
         ),
         CacheOutcome::Rebuilt { reason } => {
-            println!(
+            outln!(
                 "rebuilt basis in {:.1} s (cache was not usable: {reason})",
                 elapsed.as_secs_f64()
             )
         }
     }
-    println!("file: {}", cache.path_for(&spec).display());
-    println!(
+    outln!("file: {}", cache.path_for(&spec).display());
+    outln!(
         "database: {} materials (seed {}), {} observations; K = {}",
         spec.database.size,
         spec.database.seed,
@@ -46,7 +46,7 @@ pub fn run(args: &BasisArgs) -> anyhow::Result<()> {
         basis.components()
     );
     let total: f64 = basis.variances().iter().sum();
-    println!(
+    outln!(
         "residual variance per entry (mapped domain): {:.4}",
         basis.residual_variance()
     );
@@ -56,7 +56,7 @@ pub fn run(args: &BasisArgs) -> anyhow::Result<()> {
         .take(8)
         .map(|v| format!("{:.3}", v / total))
         .collect();
-    println!(
+    outln!(
         "share of kept variance, first components: {}",
         shown.join(" ")
     );

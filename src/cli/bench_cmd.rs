@@ -72,7 +72,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         );
     }
     for a in &report.aggregates {
-        println!(
+        outln!(
             "{:<34} rel. RMSE mean {:.3} median {:.3}, log RMSE {:.3}, {:.1} ms",
             a.method.label(),
             a.mean_relative_rmse,
@@ -82,10 +82,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         );
     }
     for (key, value) in report.key_figures() {
-        println!("{key}: {value:.4}");
+        outln!("{key}: {value:.4}");
     }
     if args.json {
-        println!("{}", report.json());
+        outln!("{}", report.json());
     }
     Ok(())
 }
@@ -100,7 +100,7 @@ fn run_scaling(args: &BenchArgs, cache: BasisCache) -> anyhow::Result<()> {
             dir.display()
         );
     }
-    print!("{}", report.markdown());
+    out!("{}", report.markdown());
     if args.json {
         let points: Vec<serde_json::Value> = report
             .points
@@ -119,7 +119,7 @@ fn run_scaling(args: &BenchArgs, cache: BasisCache) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        println!("{}", serde_json::Value::Array(points));
+        outln!("{}", serde_json::Value::Array(points));
     }
     Ok(())
 }

@@ -169,14 +169,21 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     }
     let result = calibrate(&options, &|line| eprintln!("calibrate: {line}"))?;
     for (fold, families, _) in &result.folds {
-        println!("fold {fold} leaves out: {}", families.join(", "));
+        outln!("fold {fold} leaves out: {}", families.join(", "));
     }
-    println!(
+    outln!(
         "{:<54} {:>8} {:>13} {:>13} {:>13} {:>13} {:>8} {:>6}",
-        "candidate", "geo rel", "1v mean/med", "3v mean/med", "LDR 1v", "LDR 3v", "log", "hurt"
+        "candidate",
+        "geo rel",
+        "1v mean/med",
+        "3v mean/med",
+        "LDR 1v",
+        "LDR 3v",
+        "log",
+        "hurt"
     );
     for s in &result.scores {
-        println!(
+        outln!(
             "{:<54} {:>8.4} {:>6.3}/{:<6.3} {:>6.3}/{:<6.3} {:>6.3}/{:<6.3} {:>6.3}/{:<6.3} {:>8.4} {:>3}/{}",
             s.candidate.label(),
             s.geometric_mean_relative_rmse,
@@ -193,7 +200,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
             s.comparisons
         );
     }
-    println!(
+    outln!(
         "best: {} ({:.0} s)",
         result.scores[0].candidate.label(),
         result.seconds
@@ -228,7 +235,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        println!("{}", serde_json::Value::Array(rows));
+        outln!("{}", serde_json::Value::Array(rows));
     }
     Ok(())
 }

@@ -53,7 +53,7 @@ pub fn run(args: &ConvertArgs) -> anyhow::Result<()> {
     };
     let start = Instant::now();
     let table = load_table(&args.input)?;
-    println!(
+    outln!(
         "read {} in {:.0} ms",
         args.input.display(),
         start.elapsed().as_secs_f64() * 1e3
@@ -81,7 +81,7 @@ pub fn run(args: &ConvertArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     super::ensure_parent(&args.out)?;
     let report = export(&args.out, &table, &options)?;
-    println!(
+    outln!(
         "wrote {} ({}) in {:.0} ms: {report}",
         args.out.display(),
         output.label(),

@@ -33,16 +33,16 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
             "median_psnr_db": e.median_psnr_db,
             "psnr_db": e.psnr_db,
         });
-        println!("{json}");
+        outln!("{json}");
     } else {
-        println!("relative RMSE of ρ·cos θ_l·cos θ_v: {:.4}", e.relative_rmse);
-        println!("RMSE in the log-mapped domain:     {:.4}", e.log_rmse);
-        println!(
+        outln!("relative RMSE of ρ·cos θ_l·cos θ_v: {:.4}", e.relative_rmse);
+        outln!("RMSE in the log-mapped domain:     {:.4}", e.log_rmse);
+        outln!(
             "median sphere-render PSNR:         {:.2} dB",
             e.median_psnr_db
         );
         for ((el, az), p) in EVAL_LIGHTS.iter().zip(&e.psnr_db) {
-            println!("  light elevation {el:>4}°, azimuth {az:>4}°: {p:.2} dB");
+            outln!("  light elevation {el:>4}°, azimuth {az:>4}°: {p:.2} dB");
         }
     }
     Ok(())

@@ -1,5 +1,22 @@
 //! The command line: each verb drives the engine the way a script or a test would.
 
+/// `println!` for a verb's output, returning `StdoutError` from the enclosing function when
+/// stdout can't be written: `println!` panics when the reader has gone (`burnish eval … | head`).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use ::std::io::Write as _;
+        writeln!(::std::io::stdout().lock(), $($arg)*).map_err($crate::cli::StdoutError)?
+    }};
+}
+
+/// `print!` for a verb's output, failing as `outln!` does.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use ::std::io::Write as _;
+        write!(::std::io::stdout().lock(), $($arg)*).map_err($crate::cli::StdoutError)?
+    }};
+}
+
 #[cfg(feature = "app")]
 mod app_cmd;
 mod basis_cmd;
@@ -14,6 +31,34 @@ mod suggest_cmd;
 use crate::basis::BuildProgress;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
+
+/// A failed write of the command's output to stdout. Only writes to stdout make it (`outln!`,
+/// `out!`, the help), so a broken pipe here means the reader of stdout has gone, never that some
+/// file write failed.
+#[derive(Debug)]
+pub(crate) struct StdoutError(pub(crate) std::io::Error);
+
+impl std::fmt::Display for StdoutError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("writing to stdout")
+    }
+}
+
+impl std::error::Error for StdoutError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.0)
+    }
+}
+
+/// Whether `e` says the reader of stdout has gone (`burnish … | head`): then the command has
+/// nothing left to do, and stops quietly and successfully, as command-line tools do.
+fn stdout_closed(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<StdoutError>()
+            .is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -51,7 +96,8 @@ pub enum Command {
     Calibrate(calibrate_cmd::CalibrateArgs),
 }
 
-/// Runs the command line; errors are printed with the file and the problem, exit code 1.
+/// Runs the command line; errors are printed with the file and the problem, exit code 1. A
+/// closed stdout ends it quietly with exit code 0.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -72,10 +118,11 @@ pub fn run() -> ExitCode {
         #[cfg(not(feature = "app"))]
         None => <Cli as clap::CommandFactory>::command()
             .print_help()
-            .map_err(Into::into),
+            .map_err(|e| StdoutError(e).into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if stdout_closed(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

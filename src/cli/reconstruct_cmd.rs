@@ -184,13 +184,13 @@ pub(crate) fn paint_views(
         let c = report.counts;
         used += c.used;
         if let Some(mask) = &report.mask {
-            println!(
+            outln!(
                 "  {} unpainted pixels ignored ({})",
                 report.unpainted,
                 mask.display()
             );
         }
-        println!(
+        outln!(
             "view {view}: {} = {}\n  samples used {}, skipped {} (background {}, shadow {}, grazing {}){}\n  geometry {geometry_ms:.0} ms, painting {:.0} ms",
             arg.scene.display(),
             arg.painting.display(),
@@ -227,7 +227,7 @@ pub(crate) fn load_basis(options: &BasisOptions) -> anyhow::Result<Arc<Basis>> {
         CacheOutcome::Rebuilt { reason } => format!("rebuilt ({reason})"),
         CacheOutcome::NotStored { reason } => format!("built, not cached ({reason})"),
     };
-    println!(
+    outln!(
         "basis: K = {}, {} materials, {how} in {:.0} ms",
         basis.components(),
         spec.database.size,
@@ -247,7 +247,7 @@ pub(crate) fn solve_document(
         .settle(SOLVE_TIMEOUT)
         .context("the solver did not answer")?;
     let stats = snapshot.stats;
-    println!(
+    outln!(
         "solve: {} observed bins, {} inconsistent, α = {:.3e}, condition number {:.3e}, {:.1} ms",
         stats.observed_bins,
         stats.inconsistent_bins,
@@ -260,18 +260,23 @@ pub(crate) fn solve_document(
 
 /// Says how much of the starting material the basis holds: the prior's mean is its
 /// projection, which the paintings edit.
-fn report_start(path: &std::path::Path, material: &SymTable, snapshot: &Snapshot) {
+fn report_start(
+    path: &std::path::Path,
+    material: &SymTable,
+    snapshot: &Snapshot,
+) -> anyhow::Result<()> {
     let (Some(basis), Some(mean)) = (&snapshot.basis, &snapshot.prior_mean) else {
-        return;
+        return Ok(());
     };
     let projected = Reconstruction::new(basis.clone(), mean).materialize();
     let fidelity = evaluate(material, &projected);
-    println!(
+    outln!(
         "start: {} projected onto the basis (sphere renders {:.1} dB PSNR, relative RMSE {:.1}%)",
         path.display(),
         fidelity.median_psnr_db,
         100.0 * fidelity.relative_rmse
     );
+    Ok(())
 }
 
 impl ReconstructArgs {
@@ -302,7 +307,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     let basis = load_basis(&args.basis)?;
     let snapshot = solve_document(&mut doc, basis)?;
     if let Some((path, table)) = &start_material {
-        report_start(path, table, &snapshot);
+        report_start(path, table, &snapshot)?;
     }
 
     let start = Instant::now();
@@ -314,7 +319,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     super::ensure_parent(&args.out)?;
     write_table_exr(&args.out, &full)?;
-    println!(
+    outln!(
         "table: materialised in {materialize_ms:.0} ms, written to {} in {:.0} ms",
         args.out.display(),
         start.elapsed().as_secs_f64() * 1e3
@@ -323,7 +328,7 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
         let start = Instant::now();
         super::ensure_parent(merl)?;
         MerlBrdf::from_table(&full).write(merl)?;
-        println!(
+        outln!(
             "MERL binary written to {} in {:.0} ms",
             merl.display(),
             start.elapsed().as_secs_f64() * 1e3
@@ -336,12 +341,12 @@ pub fn run(args: &ReconstructArgs) -> anyhow::Result<()> {
             .context("the uncertainty estimate did not arrive")?;
         super::ensure_parent(path)?;
         write_table_exr(path, &sd)?;
-        println!(
+        outln!(
             "uncertainty (posterior standard deviation of ρ) written to {} in {:.0} ms",
             path.display(),
             start.elapsed().as_secs_f64() * 1e3
         );
     }
-    println!("total {:.2} s", total.elapsed().as_secs_f64());
+    outln!("total {:.2} s", total.elapsed().as_secs_f64());
     Ok(())
 }

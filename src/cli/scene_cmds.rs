@@ -44,7 +44,7 @@ pub fn guide(args: &GuideArgs) -> anyhow::Result<()> {
     let (_, gbuffer) = scene_gbuffer(&args.scene)?;
     super::ensure_parent(&args.out)?;
     write_png(&args.out, &guide_image(&gbuffer))?;
-    println!(
+    outln!(
         "guide written to {} ({} × {}, {} pixels on the object) in {:.0} ms",
         args.out.display(),
         gbuffer.resolution(),
@@ -61,7 +61,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let (_, gbuffer) = scene_gbuffer(&args.scene)?;
     super::ensure_parent(&args.out)?;
     write_image(&args.out, &render_table(&gbuffer, &table))?;
-    println!(
+    outln!(
         "render written to {} in {:.0} ms",
         args.out.display(),
         start.elapsed().as_secs_f64() * 1e3

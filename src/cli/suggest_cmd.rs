@@ -55,14 +55,14 @@ pub fn run(args: &SuggestArgs) -> anyhow::Result<()> {
     let ranked = doc
         .settled_ranking(args.candidates as usize, SOLVE_TIMEOUT)
         .context("the ranking of candidate views did not arrive")?;
-    println!(
+    outln!(
         "ranked {} candidates (bins found at {CANDIDATE_RESOLUTION}²) in {:.1} s",
         ranked.len(),
         start.elapsed().as_secs_f64()
     );
     for (i, r) in ranked.iter().take(args.show.max(1)).enumerate() {
         let (light, camera) = (&r.scene.light, &r.scene.camera);
-        println!(
+        outln!(
             "{}. light elevation {:5.1}°, azimuth {:6.1}°; camera yaw {:5.1}°, pitch {:5.1}°: score {:.4e}, {} bins ({} new)",
             i + 1,
             light.elevation_deg,
@@ -78,7 +78,7 @@ pub fn run(args: &SuggestArgs) -> anyhow::Result<()> {
         super::ensure_parent(path)?;
         // Scene::save keeps a relative OBJ path valid from the new file's folder.
         best.scene.save(path)?;
-        println!("wrote the best view to {}", path.display());
+        outln!("wrote the best view to {}", path.display());
     }
     Ok(())
 }

@@ -159,7 +159,7 @@ mod tests {
         write_atomically(&path, |w| w.write_all(b"fits")).unwrap();
         let err = write_atomically(&path, |w| w.write_all(&[7; 11])).unwrap_err();
         assert!(
-            matches!(&err, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::StorageFull),
+            matches!(&err, Error::Io { cause, .. } if cause.kind() == std::io::ErrorKind::StorageFull),
             "{err}"
         );
         assert!(err.to_string().contains("t.bin"), "{err}");

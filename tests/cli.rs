@@ -470,6 +470,10 @@ fn bad_input_names_the_file_and_the_problem() {
         for e in expected {
             assert!(stderr.contains(e), "{args:?}: '{e}' missing from: {stderr}");
         }
+        assert!(
+            stderr.matches("(os error").count() <= 1,
+            "{args:?}: the cause is said more than once: {stderr}"
+        );
     }
     assert!(!Path::new(out).exists(), "no output from failed commands");
 

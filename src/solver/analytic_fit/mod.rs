@@ -153,8 +153,7 @@ pub fn fit_lambert_microfacet_bounded(
             iterations: 0,
         };
     }
-    let residuals = 3.0 * observations.len() as f64;
-    let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
+    let rms = |cost: f64| rms_log(&observations, cost);
     let score = |fit: &ShapeFit| Score {
         rms_log: rms(fit.cost),
         weighted: brightness_weighted_rms(&observations, &fit.model()),
@@ -203,7 +202,7 @@ pub fn fit_lambert_microfacet_bounded(
                 let mut theta = best.theta;
                 theta[SIGMA] = logit(sigma / SIGMA_MAX);
                 let mut matte = theta;
-                matte[9] = logit(0.0);
+                matte[SPECULAR] = logit(0.0);
                 [theta, matte]
             })
             .collect();
@@ -344,8 +343,7 @@ fn without_an_unseen_lobe(observations: &[Observation], fit: ShapeFit) -> ShapeF
     };
     let theta = params_of(&matte);
     let matte_cost = cost(observations, &theta, fit.shape);
-    let residuals = 3.0 * observations.len() as f64;
-    let rms = |cost: f64| (2.0 * cost / residuals).sqrt();
+    let rms = |cost: f64| rms_log(observations, cost);
     if rms(matte_cost)
         <= rms(fit.cost) * (1.0 + UNSEEN_LOBE_RMS_RELATIVE) + UNSEEN_LOBE_RMS_ABSOLUTE
     {
@@ -483,6 +481,12 @@ fn edge_start(theta: &Params, shape: Shape) -> Params {
         start[EDGE + c] = logit(best);
     }
     start
+}
+
+/// The RMS log residual of a fit of cost ½‖r‖² (three residuals a bin), as
+/// [`FitResult::rms_log_residual`] reports it.
+fn rms_log(observations: &[Observation], cost: f64) -> f64 {
+    (2.0 * cost / (3.0 * observations.len() as f64)).sqrt()
 }
 
 /// RMS of the log residuals weighted by each bin's brightness L (luminance × cos θ_l cos θ_v)

@@ -10,6 +10,8 @@ pub(super) const ALPHA_MAX: f64 = 1.5;
 /// Parameters of one lobe: three albedo logits, three F0 logits, two log-roughness logits,
 /// rotation, the specular weight's logit.
 pub(super) const P_ONE: usize = 10;
+/// The specular weight's logit: the last of one lobe's parameters.
+pub(super) const SPECULAR: usize = P_ONE - 1;
 /// With a second lobe: the logit of its grey F0 within the dielectric range and its
 /// log-roughness logit after those.
 pub(super) const P_COAT: usize = 12;
@@ -18,8 +20,6 @@ pub(super) const EDGE: usize = P_COAT;
 /// With a rough diffuse: the logit of its Oren–Nayar slope within [0, [`SIGMA_MAX`]] last.
 pub(super) const SIGMA: usize = EDGE + 3;
 pub(super) const P: usize = SIGMA + 1;
-/// The roughest diffuse: Oren–Nayar's A and B have all but levelled off by a slope of
-/// 1.2 rad, and the database's rough diffuse reaches 1.
 /// The parameters D·G of the first lobe depends on (its roughnesses and turn), and that of
 /// the second (its roughness).
 pub(super) const SHAPE: [usize; 3] = [6, 7, 8];
@@ -35,6 +35,8 @@ pub(super) const COAT_F0_MAX: f64 = 0.08;
 /// A parameter vector; the fit varies only the entries [`Shape::active`] lists.
 pub(super) type Params = [f64; P];
 
+/// The roughest diffuse: Oren–Nayar's A and B have all but levelled off by a slope of
+/// 1.2 rad, and the database's rough diffuse reaches 1.
 pub(super) const SIGMA_MAX: f64 = 1.2;
 
 /// What the fit varies beyond one lobe's ten parameters.
@@ -140,7 +142,7 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
         alpha_y: alpha_of(theta[7]),
         // A lobe turned by π is the same lobe: the reported angle stays in [0, π).
         rotation: theta[8].rem_euclid(std::f64::consts::PI),
-        specular: logistic(theta[9]),
+        specular: logistic(theta[SPECULAR]),
         coat: two_lobes.then(|| Coat {
             f0: [COAT_F0_MIN + (COAT_F0_MAX - COAT_F0_MIN) * logistic(theta[P_ONE]); 3],
             alpha: alpha_of(theta[COAT_SHAPE]),
@@ -191,7 +193,7 @@ pub(super) fn params_of(model: &LambertMicrofacet) -> Params {
     theta[6] = alpha_param(model.alpha_x);
     theta[7] = alpha_param(model.alpha_y);
     theta[8] = model.rotation;
-    theta[9] = logit(model.specular);
+    theta[SPECULAR] = logit(model.specular);
     theta[SIGMA] = logit(model.sigma / SIGMA_MAX);
     if let Some(second) = model.coat {
         let grey = (second.f0[0] + second.f0[1] + second.f0[2]) / 3.0;

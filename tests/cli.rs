@@ -539,29 +539,51 @@ fn nan_and_negative_paint_on_the_object_is_refused() {
     assert!(!table.exists(), "no table from a refused painting");
 }
 
-/// `burnish eval … | head -1`: when the reader of stdout has gone, the command stops quietly
-/// (exit 0, nothing on stderr) instead of panicking on the broken pipe. The pipe's read end is
-/// closed before the binary starts, so its first write always fails.
-#[test]
-fn a_closed_stdout_ends_the_command_quietly() {
-    use burnish::materials::{models::Lambert, tabulate};
-    let dir = tempfile::tempdir().unwrap();
-    let table = dir.path().join("lambert.exr");
-    let lambert = Lambert {
-        albedo: [0.5, 0.4, 0.3],
-    };
-    burnish::table::exr_file::write_table_exr(&table, &tabulate(&lambert)).unwrap();
+/// Runs the binary with a stdout whose reader has gone: the pipe's read end is closed before
+/// the binary starts, so its first write to stdout always fails (`burnish … | head -1`).
+fn burnish_with_closed_stdout(args: &[&str], cache: &Path) -> Output {
     let (reader, writer) = std::io::pipe().unwrap();
     drop(reader);
-    let o = Command::new(env!("CARGO_BIN_EXE_burnish"))
-        .args(["eval", "--truth", path_str(&table), "--estimate"])
-        .arg(&table)
-        .env("BURNISH_CACHE_DIR", dir.path().join("cache"))
+    Command::new(env!("CARGO_BIN_EXE_burnish"))
+        .args(args)
+        .env("BURNISH_CACHE_DIR", cache)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .stdout(writer)
         .output()
-        .expect("the binary runs");
+        .expect("the binary runs")
+}
+
+/// When the reader of stdout has gone, a verb drops the rest of its output and goes on
+/// (`println!` panicked there): `eval` ends quietly, and `reconstruct`, which reports each
+/// view on stdout before it solves, still writes the table it was asked for.
+#[test]
+fn a_closed_stdout_drops_the_output_and_not_the_work() {
+    use burnish::materials::{models::Lambert, tabulate};
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let lambert = dir.path().join("lambert.exr");
+    let albedo = [0.5, 0.4, 0.3];
+    burnish::table::exr_file::write_table_exr(&lambert, &tabulate(&Lambert { albedo })).unwrap();
+    let o = burnish_with_closed_stdout(
+        &[
+            "eval",
+            "--truth",
+            path_str(&lambert),
+            "--estimate",
+            path_str(&lambert),
+        ],
+        &cache,
+    );
     let stderr = text(&o.stderr);
     assert!(o.status.success(), "{:?}: {stderr}", o.status);
     assert!(stderr.is_empty(), "nothing on stderr, got: {stderr}");
+
+    let table = dir.path().join("out").join("example.exr");
+    let view = format!("{EXAMPLE_SCENE}={EXAMPLE_PAINTING}");
+    let mut args = vec!["reconstruct", "--view", &view, "--out", path_str(&table)];
+    args.extend(SMALL_BASIS);
+    let o = burnish_with_closed_stdout(&args, &cache);
+    assert!(o.status.success(), "{:?}: {}", o.status, text(&o.stderr));
+    let written = burnish::table::exr_file::read_table_exr(&table).expect("the table is written");
+    assert!(written.is_physical());
 }

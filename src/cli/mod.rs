@@ -1,20 +1,17 @@
 //! The command line: each verb drives the engine the way a script or a test would.
 
-/// `println!` for a verb's output, returning `StdoutError` from the enclosing function when
-/// stdout can't be written: `println!` panics when the reader has gone (`burnish eval … | head`).
+/// `println!` for a verb's output, through [`write_out`].
 macro_rules! outln {
-    ($($arg:tt)*) => {{
-        use ::std::io::Write as _;
-        writeln!(::std::io::stdout().lock(), $($arg)*).map_err($crate::cli::StdoutError)?
-    }};
+    ($($arg:tt)*) => {
+        $crate::cli::write_out(format_args!("{}\n", format_args!($($arg)*)))?
+    };
 }
 
-/// `print!` for a verb's output, failing as `outln!` does.
+/// `print!` for a verb's output, through [`write_out`].
 macro_rules! out {
-    ($($arg:tt)*) => {{
-        use ::std::io::Write as _;
-        write!(::std::io::stdout().lock(), $($arg)*).map_err($crate::cli::StdoutError)?
-    }};
+    ($($arg:tt)*) => {
+        $crate::cli::write_out(format_args!($($arg)*))?
+    };
 }
 
 #[cfg(feature = "app")]
@@ -32,9 +29,7 @@ use crate::basis::BuildProgress;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-/// A failed write of the command's output to stdout. Only writes to stdout make it (`outln!`,
-/// `out!`, the help), so a broken pipe here means the reader of stdout has gone, never that some
-/// file write failed.
+/// A failed write of the command's output to stdout (a full disk behind a redirection).
 #[derive(Debug)]
 pub(crate) struct StdoutError(pub(crate) std::io::Error);
 
@@ -50,14 +45,26 @@ impl std::error::Error for StdoutError {
     }
 }
 
-/// Whether `e` says the reader of stdout has gone (`burnish … | head`): then the command has
-/// nothing left to do, and stops quietly and successfully, as command-line tools do.
-fn stdout_closed(e: &anyhow::Error) -> bool {
-    e.chain().any(|cause| {
-        cause
-            .downcast_ref::<StdoutError>()
-            .is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe)
-    })
+/// Set once the reader of stdout has gone.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Writes a verb's output to stdout. Once the reader has gone (`burnish eval … | head -1`)
+/// the rest of the output is dropped and the verb goes on: what a verb writes to files
+/// (`reconstruct --out`, `render --out`) is what the user asked for, and its exit status
+/// says whether that was done. `println!` would panic there instead.
+pub(crate) fn write_out(text: std::fmt::Arguments) -> Result<(), StdoutError> {
+    use std::io::Write as _;
+    use std::sync::atomic::Ordering::Relaxed;
+    if STDOUT_CLOSED.load(Relaxed) {
+        return Ok(());
+    }
+    match std::io::stdout().lock().write_fmt(text) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+            STDOUT_CLOSED.store(true, Relaxed);
+            Ok(())
+        }
+        result => result.map_err(StdoutError),
+    }
 }
 
 #[derive(Parser, Debug)]
@@ -96,8 +103,7 @@ pub enum Command {
     Calibrate(calibrate_cmd::CalibrateArgs),
 }
 
-/// Runs the command line; errors are printed with the file and the problem, exit code 1. A
-/// closed stdout ends it quietly with exit code 0.
+/// Runs the command line; errors are printed with the file and the problem, exit code 1.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -116,13 +122,14 @@ pub fn run() -> ExitCode {
         None => app_cmd::run(&app_cmd::AppArgs::default()),
         // Built without the window: list the verbs.
         #[cfg(not(feature = "app"))]
-        None => <Cli as clap::CommandFactory>::command()
-            .print_help()
-            .map_err(|e| StdoutError(e).into()),
+        None => write_out(format_args!(
+            "{}",
+            <Cli as clap::CommandFactory>::command().render_help()
+        ))
+        .map_err(Into::into),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) if stdout_closed(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

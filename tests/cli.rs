@@ -553,6 +553,29 @@ fn burnish_with_closed_stdout(args: &[&str], cache: &Path) -> Output {
         .expect("the binary runs")
 }
 
+/// When stderr has gone too, an error still ends the verb with its own exit status (1),
+/// not a panic's (101): `eprintln!` panicked there.
+#[test]
+fn a_closed_stderr_keeps_the_exit_status() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.exr");
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let status = Command::new(env!("CARGO_BIN_EXE_burnish"))
+        .args([
+            "eval",
+            "--truth",
+            path_str(&missing),
+            "--estimate",
+            path_str(&missing),
+        ])
+        .env("BURNISH_CACHE_DIR", dir.path().join("cache"))
+        .stderr(writer)
+        .status()
+        .expect("the binary runs");
+    assert_eq!(status.code(), Some(1), "{status:?}");
+}
+
 /// When the reader of stdout has gone, a verb drops the rest of its output and goes on
 /// (`println!` panicked there): `eval` ends quietly, and `reconstruct`, which reports each
 /// view on stdout before it solves, still writes the table it was asked for.

@@ -25,7 +25,7 @@ pub fn run(args: &BasisArgs) -> anyhow::Result<()> {
             elapsed.as_secs_f64() * 1e3
         ),
         CacheOutcome::Built => outln!("built basis in {:.1} s", elapsed.as_secs_f64()),
-        CacheOutcome::NotStored { reason } => eprintln!(
+        CacheOutcome::NotStored { reason } => errln!(
             "built basis in {:.1} s, but it could not be cached, so the next run builds it \
              again: {reason}",
             elapsed.as_secs_f64()

@@ -52,7 +52,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         options.basis_materials = materials as usize;
     }
     options.error_maps = args.out.as_ref().map(|dir| dir.join("error_maps"));
-    let report = run_bench(&options, &|line| eprintln!("bench: {line}"))?;
+    let report = run_bench(&options, &|line| errln!("bench: {line}"))?;
     if let Some(dir) = &args.out {
         let mut command = String::from("cargo run --release -- bench");
         if args.quick {
@@ -66,7 +66,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         }
         command.push_str(&format!(" --out {}", dir.display()));
         report.write_outputs(dir, &command)?;
-        eprintln!(
+        errln!(
             "bench: wrote bench.csv, bench_pareto.png and BENCHMARKS.md to {}",
             dir.display()
         );
@@ -92,10 +92,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 
 fn run_scaling(args: &BenchArgs, cache: BasisCache) -> anyhow::Result<()> {
     let options = ScalingOptions::standard(cache);
-    let report = scaling::run_scaling(&options, &|line| eprintln!("bench: {line}"))?;
+    let report = scaling::run_scaling(&options, &|line| errln!("bench: {line}"))?;
     if let Some(dir) = &args.out {
         report.write_outputs(dir)?;
-        eprintln!(
+        errln!(
             "bench: wrote bench_scaling.csv, bench_scaling.png and SCALING.md to {}",
             dir.display()
         );

@@ -167,7 +167,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         anyhow::ensure!(materials >= 20, "--materials must be at least 20");
         options.basis_materials = materials;
     }
-    let result = calibrate(&options, &|line| eprintln!("calibrate: {line}"))?;
+    let result = calibrate(&options, &|line| errln!("calibrate: {line}"))?;
     for (fold, families, _) in &result.folds {
         outln!("fold {fold} leaves out: {}", families.join(", "));
     }

@@ -14,6 +14,13 @@ macro_rules! out {
     };
 }
 
+/// `eprintln!` for progress, warnings and errors, through [`write_err`].
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::cli::write_err(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 #[cfg(feature = "app")]
 mod app_cmd;
 mod basis_cmd;
@@ -65,6 +72,14 @@ pub(crate) fn write_out(text: std::fmt::Arguments) -> Result<(), StdoutError> {
         }
         result => result.map_err(StdoutError),
     }
+}
+
+/// Writes progress, a warning or an error to stderr. Nothing is left to tell when stderr
+/// itself has gone (`burnish … 2>&-`, a closed pipe), so a failed write is dropped: the verb
+/// goes on and its exit status still says how it ended. `eprintln!` would panic there.
+pub(crate) fn write_err(text: std::fmt::Arguments) {
+    use std::io::Write as _;
+    let _ = std::io::stderr().lock().write_fmt(text);
 }
 
 #[derive(Parser, Debug)]
@@ -131,7 +146,7 @@ pub fn run() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            errln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }

@@ -175,9 +175,21 @@ fn microfacet_dg(
     ay: f64,
     rotation: f64,
 ) -> f64 {
+    microfacet_dg_turned(distribution, l, v, ax, ay, sin_cos(rotation))
+}
+
+/// [`microfacet_dg`] with the rotation's (sin, cos) given.
+#[inline]
+fn microfacet_dg_turned(
+    distribution: Distribution,
+    l: DVec3,
+    v: DVec3,
+    ax: f64,
+    ay: f64,
+    sc: (f64, f64),
+) -> f64 {
     // α = 0 would be a Dirac lobe; clamp to something finite.
     let (ax, ay) = (ax.max(MIN_ALPHA), ay.max(MIN_ALPHA));
-    let sc = sin_cos(rotation);
     let h = (l + v).normalize();
     let (hx, hy) = rotated_xy(h, sc);
     let d = distribution.d(hx, hy, h.z, ax, ay);
@@ -280,7 +292,45 @@ impl Microfacet {
     }
 }
 
+/// A lobe's D·G₂/(4 cos θ_l cos θ_v) with its rotation's sine and cosine worked out once:
+/// a fit evaluates one lobe at thousands of bins per step, and the bits are those of
+/// [`Microfacet::eval_unit_fresnel`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LobeShape {
+    distribution: Distribution,
+    alpha_x: f64,
+    alpha_y: f64,
+    sin_cos: (f64, f64),
+}
+
+impl LobeShape {
+    #[inline]
+    pub(crate) fn eval(&self, l: DVec3, v: DVec3) -> f64 {
+        if !above(l, v) {
+            return 0.0;
+        }
+        microfacet_dg_turned(
+            self.distribution,
+            l,
+            v,
+            self.alpha_x,
+            self.alpha_y,
+            self.sin_cos,
+        )
+    }
+}
+
 impl Microfacet {
+    /// The lobe's shape, prepared for evaluating at many bins.
+    pub(crate) fn shape(&self) -> LobeShape {
+        LobeShape {
+            distribution: self.distribution,
+            alpha_x: self.alpha_x,
+            alpha_y: self.alpha_y,
+            sin_cos: sin_cos(self.rotation),
+        }
+    }
+
     /// D·G₂/(4 cos θ_l cos θ_v) alone, without Fresnel or tint: the lobe's shape, for
     /// models that bring their own reflectance.
     pub(crate) fn eval_unit_fresnel(&self, l: DVec3, v: DVec3) -> f64 {

@@ -5,7 +5,7 @@ use super::model::{LambertMicrofacet, Prepared};
 use super::params::{COAT_SHAPE, P, Params, SHAPE, SIGMA, Shape, model_of};
 use super::{FitOptions, Observation};
 use crate::basis::MAP_EPSILON;
-use crate::materials::models::{Fresnel, Microfacet, above, cos_half_difference};
+use crate::materials::models::{Fresnel, LobeShape, above, cos_half_difference};
 use crate::solver::sparse::Bound;
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
@@ -77,15 +77,19 @@ pub(super) fn residuals(model: &Prepared, o: &Observation) -> [f64; 3] {
 /// [`residuals`] of a given ρ.
 #[inline]
 pub(super) fn residuals_of(rho: [f64; 3], o: &Observation) -> [f64; 3] {
-    std::array::from_fn(|ch| {
-        let r = (rho[ch] * o.c + MAP_EPSILON).ln() - o.target[ch];
-        let r = match o.bounds[ch] {
-            Bound::Exact => r,
-            Bound::AtLeast => r.min(0.0),
-            Bound::AtMost => r.max(0.0),
-        };
-        o.sqrt_weight * r
-    })
+    std::array::from_fn(|ch| channel_residual(rho[ch], o, ch))
+}
+
+/// One channel of [`residuals_of`].
+#[inline]
+fn channel_residual(rho: f64, o: &Observation, ch: usize) -> f64 {
+    let r = (rho * o.c + MAP_EPSILON).ln() - o.target[ch];
+    let r = match o.bounds[ch] {
+        Bound::Exact => r,
+        Bound::AtLeast => r.min(0.0),
+        Bound::AtMost => r.max(0.0),
+    };
+    o.sqrt_weight * r
 }
 
 /// ½‖r‖² at `theta`.
@@ -109,8 +113,8 @@ pub(super) fn cost(observations: &[Observation], theta: &Params, shape: Shape) -
 pub(super) struct Stepped {
     pub(super) model: LambertMicrofacet,
     pub(super) fresnel: Fresnel,
-    pub(super) lobe: Option<Microfacet>,
-    pub(super) second: Option<Microfacet>,
+    pub(super) lobe: Option<LobeShape>,
+    pub(super) second: Option<LobeShape>,
     /// Whether the step moves the diffuse's slope.
     pub(super) diffuse: bool,
     pub(super) h: f64,
@@ -129,7 +133,8 @@ pub(super) fn normal_equations(
     let (active, n) = shape.active();
     let base = model_of(theta, shape);
     let lobe = base.parts().1;
-    let second = base.second_part();
+    let lobe_shape = lobe.shape();
+    let second = base.second_part().map(|s| s.shape());
     let stepped: Vec<Stepped> = active[..n]
         .iter()
         .map(|&i| {
@@ -138,9 +143,11 @@ pub(super) fn normal_equations(
             t[i] += h;
             let model = model_of(&t, shape);
             Stepped {
-                lobe: SHAPE.contains(&i).then(|| model.parts().1),
+                lobe: SHAPE.contains(&i).then(|| model.parts().1.shape()),
                 // A haze's lobe carries the first's Fresnel, which its D·G does not use.
-                second: (i == COAT_SHAPE).then(|| model.second_part()).flatten(),
+                second: (i == COAT_SHAPE)
+                    .then(|| model.second_part().map(|s| s.shape()))
+                    .flatten(),
                 diffuse: i == SIGMA,
                 fresnel: model.fresnel(),
                 model,
@@ -157,30 +164,25 @@ pub(super) fn normal_equations(
             for o in chunk {
                 let visible = above(o.l, o.v);
                 let cos_d = cos_half_difference(o.l, o.v);
-                let dg = lobe.eval_unit_fresnel(o.l, o.v);
-                let dg_second = second
-                    .as_ref()
-                    .map_or(0.0, |s| s.eval_unit_fresnel(o.l, o.v));
+                let dg = lobe_shape.eval(o.l, o.v);
+                let dg_second = second.as_ref().map_or(0.0, |s| s.eval(o.l, o.v));
                 let diffuse = base.diffuse_scale(o.l, o.v);
                 let rho =
                     base.eval_from_lobes(&lobe.fresnel, visible, diffuse, dg, dg_second, cos_d);
                 let r = residuals_of(rho, o);
                 let mut jac = [[0.0; P]; 3];
                 for (j, step) in stepped.iter().enumerate() {
-                    let dg = step
-                        .lobe
-                        .as_ref()
-                        .map_or(dg, |moved| moved.eval_unit_fresnel(o.l, o.v));
+                    let dg = step.lobe.as_ref().map_or(dg, |moved| moved.eval(o.l, o.v));
                     let dg_second = step
                         .second
                         .as_ref()
-                        .map_or(dg_second, |moved| moved.eval_unit_fresnel(o.l, o.v));
+                        .map_or(dg_second, |moved| moved.eval(o.l, o.v));
                     let diffuse = if step.diffuse {
                         step.model.diffuse_scale(o.l, o.v)
                     } else {
                         diffuse
                     };
-                    let rho = step.model.eval_from_lobes(
+                    let stepped_rho = step.model.eval_from_lobes(
                         &step.fresnel,
                         visible,
                         diffuse,
@@ -188,9 +190,15 @@ pub(super) fn normal_equations(
                         dg_second,
                         cos_d,
                     );
-                    let rp = residuals_of(rho, o);
                     for ch in 0..3 {
-                        jac[ch][j] = (rp[ch] - r[ch]) / step.h;
+                        // A channel the step leaves alone (another channel's albedo, F0 or
+                        // tint) keeps its bits, so its residual is r and its slope zero: the
+                        // logarithm, most of a fit's time, is skipped.
+                        jac[ch][j] = if stepped_rho[ch] == rho[ch] {
+                            0.0
+                        } else {
+                            (channel_residual(stepped_rho[ch], o, ch) - r[ch]) / step.h
+                        };
                     }
                 }
                 for ch in 0..3 {

@@ -3,8 +3,8 @@
 
 use crate::materials::Brdf;
 use crate::materials::models::{
-    Distribution, Fresnel, Microfacet, OrenNayar, above, cos_half_difference, oren_nayar_scale,
-    schlick,
+    Distribution, Fresnel, LobeShape, Microfacet, OrenNayar, above, cos_half_difference,
+    oren_nayar_scale, schlick,
 };
 use glam::DVec3;
 
@@ -194,30 +194,30 @@ impl LambertMicrofacet {
 /// bits [`Brdf::eval`] gives.
 pub(super) struct Prepared {
     pub(super) model: LambertMicrofacet,
-    pub(super) lobe: Microfacet,
-    pub(super) second: Option<Microfacet>,
+    fresnel: Fresnel,
+    lobe: LobeShape,
+    second: Option<LobeShape>,
 }
 
 impl Prepared {
     pub(super) fn new(model: LambertMicrofacet) -> Self {
+        let lobe = model.parts().1;
         Self {
-            lobe: model.parts().1,
-            second: model.second_part(),
+            fresnel: lobe.fresnel,
+            lobe: lobe.shape(),
+            second: model.second_part().map(|second| second.shape()),
             model,
         }
     }
 
     #[inline]
     pub(super) fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
-        let dg_second = self
-            .second
-            .as_ref()
-            .map_or(0.0, |second| second.eval_unit_fresnel(l, v));
+        let dg_second = self.second.as_ref().map_or(0.0, |second| second.eval(l, v));
         self.model.eval_from_lobes(
-            &self.lobe.fresnel,
+            &self.fresnel,
             above(l, v),
             self.model.diffuse_scale(l, v),
-            self.lobe.eval_unit_fresnel(l, v),
+            self.lobe.eval(l, v),
             dg_second,
             cos_half_difference(l, v),
         )

@@ -30,7 +30,7 @@ use crate::scene::{
     CameraSettings, GBuffer, LightSettings, Object, PaintRange, SampleCounts, SampleSet, Scene,
     render_table, samples_from_image_in, srgb_decode, srgb_encode,
 };
-use crate::solver::analytic_fit::{FitOptions, fit_lambert_microfacet};
+use crate::solver::analytic_fit::{FitOptions, Prepared, fit_lambert_microfacet};
 use crate::solver::{Policy, PriorModel, Reconstruction, Regularization, Solver, SparseTable};
 use crate::table::SymTable;
 use held_out::HeldOut;
@@ -709,7 +709,7 @@ fn analytic_row(
     let (table, _) = painted.sparse_table(Policy::Mean);
     let bins: Vec<(crate::table::PairIndex, [f64; 3])> = table.observed().collect();
     let result = fit_lambert_microfacet(&bins, fit);
-    let estimate = tabulate(&result.model);
+    let estimate = tabulate(&Prepared::new(result.model));
     let time_ms = painted.samples_ms + ms_since(start);
     let e = evaluate(truth, &estimate);
     Row {

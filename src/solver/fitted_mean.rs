@@ -24,7 +24,9 @@
 //! at once ([`super::Solver::refit_prior_mean`]). Everything is deterministic, so the app and
 //! the command line reach the same reference from the same bins.
 
-use super::analytic_fit::{FitOptions, LambertMicrofacet, fit_lambert_microfacet_bounded};
+use super::analytic_fit::{
+    FitOptions, LambertMicrofacet, Prepared, fit_lambert_microfacet_bounded,
+};
 use super::prior::PriorMean;
 use super::sparse::Bounds;
 use crate::basis::Basis;
@@ -86,7 +88,7 @@ impl PartialEq for FittedReference {
 impl FittedReference {
     /// Tabulates `model` on `basis`'s map.
     pub fn new(basis: Arc<Basis>, model: LambertMicrofacet) -> Self {
-        let table = tabulate(&model);
+        let table = tabulate(&Prepared::new(model));
         let offsets = table
             .pairs()
             .par_iter()

@@ -19,7 +19,7 @@ mod model;
 mod params;
 
 pub use crate::materials::models::Distribution;
-pub use model::{Coat, Haze, LambertMicrofacet, conductor_from_edge_tint};
+pub use model::{Coat, Haze, LambertMicrofacet, Prepared, conductor_from_edge_tint};
 
 use super::prior::PriorModel;
 use super::sparse::{Bounds, EXACT};
@@ -28,7 +28,6 @@ use crate::materials::models::{cos_half_difference, schlick};
 use crate::table::{PairIndex, bin_centre, pair_directions, pair_multiplicity};
 use glam::DVec3;
 use levenberg::{ShapeFit, cost, fit_shape, residuals};
-use model::Prepared;
 use params::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 

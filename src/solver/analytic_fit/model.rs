@@ -191,8 +191,9 @@ impl LambertMicrofacet {
 }
 
 /// A model with its lobes and their Fresnel worked out once, to evaluate many bins with the
-/// bits [`Brdf::eval`] gives.
-pub(super) struct Prepared {
+/// bits [`Brdf::eval`] gives: tabulate this rather than the model (1.3 million pairs).
+#[derive(Clone, Debug)]
+pub struct Prepared {
     pub(super) model: LambertMicrofacet,
     fresnel: Fresnel,
     lobe: LobeShape,
@@ -200,7 +201,7 @@ pub(super) struct Prepared {
 }
 
 impl Prepared {
-    pub(super) fn new(model: LambertMicrofacet) -> Self {
+    pub fn new(model: LambertMicrofacet) -> Self {
         let lobe = model.parts().1;
         Self {
             fresnel: lobe.fresnel,
@@ -221,6 +222,15 @@ impl Prepared {
             dg_second,
             cos_half_difference(l, v),
         )
+    }
+}
+
+impl Brdf for Prepared {
+    fn eval(&self, l: DVec3, v: DVec3) -> [f64; 3] {
+        Prepared::eval(self, l, v)
+    }
+    fn is_isotropic(&self) -> bool {
+        self.model.is_isotropic()
     }
 }
 

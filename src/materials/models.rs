@@ -334,17 +334,7 @@ impl Microfacet {
     /// D·G₂/(4 cos θ_l cos θ_v) alone, without Fresnel or tint: the lobe's shape, for
     /// models that bring their own reflectance.
     pub(crate) fn eval_unit_fresnel(&self, l: DVec3, v: DVec3) -> f64 {
-        if !above(l, v) {
-            return 0.0;
-        }
-        microfacet_dg(
-            self.distribution,
-            l,
-            v,
-            self.alpha_x,
-            self.alpha_y,
-            self.rotation,
-        )
+        self.shape().eval(l, v)
     }
 }
 

@@ -325,6 +325,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             edge_margin: None,
             haze_margin: None,
             rough_margin: None,
+            grazing_weight: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

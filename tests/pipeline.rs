@@ -186,6 +186,7 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
             coat_margin,
             haze_margin,
             rough_margin,
+            grazing_weight,
             ..
         } => PriorMean::Fitted {
             margin_nats,
@@ -194,6 +195,7 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
             edge_margin: None,
             haze_margin,
             rough_margin,
+            grazing_weight,
         },
         PriorMean::Database => PriorMean::Database,
     };

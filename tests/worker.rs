@@ -428,6 +428,7 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
         edge_margin: None,
         haze_margin: None,
         rough_margin: None,
+        grazing_weight: None,
     };
     let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
     worker.send(Command::SetPriorMean(always));

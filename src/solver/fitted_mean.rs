@@ -161,6 +161,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             edge_margin,
             haze_margin,
             rough_margin,
+            grazing_weight,
             ..
         } => FitOptions {
             beckmann_margin,
@@ -168,6 +169,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             edge_margin,
             haze_margin,
             rough_margin,
+            grazing_weight,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -306,6 +308,7 @@ mod tests {
             edge_margin: Some(1.2),
             haze_margin: Some(1.3),
             rough_margin: Some(1.4),
+            grazing_weight: Some(0.9),
         };
         let options = fit_options(mean);
         assert_eq!(options.beckmann_margin, Some(1.5));
@@ -313,6 +316,7 @@ mod tests {
         assert_eq!(options.edge_margin, Some(1.2));
         assert_eq!(options.haze_margin, Some(1.3));
         assert_eq!(options.rough_margin, Some(1.4));
+        assert_eq!(options.grazing_weight, Some(0.9));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

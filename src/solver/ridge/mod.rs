@@ -1290,6 +1290,7 @@ mod tests {
                 edge_margin: None,
                 haze_margin: None,
                 rough_margin: None,
+                grazing_weight: None,
             },
             ..MODEL
         }

@@ -309,10 +309,11 @@ impl PriorMean {
     /// 0.086), 8-bit one view 0.246 / 0.087 against 0.251 / 0.086, log RMSE 0.1014 against
     /// 0.1021, three views and cases hurt by a view unchanged (0.133, 8 of 96); without the
     /// floor on F0 at water's, 0.0205 and one view 0.211 / 0.092 (a dark principled material
-    /// of F0 0.0016, 0.955 → 0.133). S = 0.7, 0.5
-    /// and 0.3 and a weight of (s·F0)^γ for γ = 0.25 and 0.5 score 0.0232 to 0.0290, and
-    /// tolerances of 1e-5 and 3e-5 let the weight move where a few bins near θ_d = 40° showed
-    /// a lower one (a Ward lobe's 8-bit view 0.018 → 0.131). But on 17 held-out materials (the
+    /// of F0 0.0016, 0.955 → 0.133). No rise at all (S = s·F0, F0 1) scores 0.0211, one view
+    /// 0.233 / 0.091. At a tolerance of 1e-4, S = 0.98, 0.7 and 0.5 and a weight of (s·F0)^γ
+    /// for γ = 0.5 and 0.25 score 0.0232, 0.0236, 0.0245, 0.0249 and 0.0247: from 1e-5 up the
+    /// weight moves where a few bins near θ_d = 40° showed a lower one (a Ward lobe's 8-bit
+    /// view 0.018 → 0.131). But on 17 held-out materials (the
     /// pipeline tests' six database materials and the bench's eleven hand-built ones, one to
     /// three views) two views get worse: their mean 0.346 → 0.414, above one view's 0.397,
     /// with a Phong highlight (no Fresnel) 2.03 → 3.39, a principled material 0.099 → 0.191,

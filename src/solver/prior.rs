@@ -313,16 +313,19 @@ impl PriorMean {
     /// 0.233 / 0.091. At a tolerance of 1e-4, S = 0.98, 0.7 and 0.5 and a weight of (s·F0)^γ
     /// for γ = 0.5 and 0.25 score 0.0232, 0.0236, 0.0245, 0.0249 and 0.0247: from 1e-5 up the
     /// weight moves where a few bins near θ_d = 40° showed a lower one (a Ward lobe's 8-bit
-    /// view 0.018 → 0.131). But on 17 held-out materials (the
-    /// pipeline tests' six database materials and the bench's eleven hand-built ones, one to
-    /// three views) two views get worse: their mean 0.346 → 0.414, above one view's 0.397,
-    /// with a Phong highlight (no Fresnel) 2.03 → 3.39, a principled material 0.099 → 0.191,
-    /// and a clear coat better from one view (0.745 → 0.244) but no longer from two (0.557).
+    /// view 0.018 → 0.131). But on 17 held-out materials (the pipeline tests' six database
+    /// materials and the bench's eleven hand-built ones, one to three views) two views get
+    /// worse: their mean 0.346 → 0.414, above one view's 0.397, with a Phong highlight (no
+    /// Fresnel) 2.03 → 3.39, a principled material 0.099 → 0.191, and a clear coat better
+    /// from one view (0.745 → 0.244) but no longer from two (0.557).
     /// On the bench's ten held-out materials every figure is the same or better (one view
     /// 0.2302 / 0.0580 → 0.2289 / 0.0575, 8-bit one view 0.3298 / 0.0913 → 0.3248 / 0.0882,
     /// three views unchanged): in the default basis the split decides the 8-bit error of the
     /// bench's Lambert + GGX plastic, 0.022 in HDR, where the clipped view's fit lands at
-    /// s = 0.49, F0 0.081 rather than 0.95, 0.042 (0.204; with the prior 0.157).
+    /// s = 0.49, F0 0.081 rather than 0.95, 0.042 (0.204; with the prior 0.157). A middle
+    /// weight, S = 0.5, passes neither: on the folds 0.0208 but 10 of 96 cases hurt by a
+    /// view, and on the bench 8-bit one view 0.3298 / 0.0913 → 0.3530 / 0.1537 (a glossy
+    /// plastic 0.076 → 0.263).
     /// Physics says s is 1; Phong and Ward lobes, which renderers still use, say it is s·F0;
     /// which of the two a painting means, one light cannot tell.
     pub const FITTED: Self = Self::Fitted {

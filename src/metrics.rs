@@ -4,7 +4,7 @@ use crate::basis::{MAP_EPSILON, cos_weight_polar};
 use crate::scene::{
     BuiltinShape, GBuffer, LightSettings, Object, Scene, render_table, srgb_encode,
 };
-use crate::table::{PHI_BINS, SymTable, for_each_pair, theta_centre};
+use crate::table::{PHI_BINS, SymTable, bin_centre, for_each_pair, theta_centre};
 
 /// The eight lights (elevation, azimuth in degrees, SCENE.md) of the sphere renders.
 pub const EVAL_LIGHTS: [(f64, f64); 8] = [
@@ -64,6 +64,102 @@ pub fn table_errors(truth: &SymTable, estimate: &SymTable) -> TableErrors {
     }
 }
 
+/// Edges (degrees) of the half-angle bands of [`ErrorByAngle`]: fine near the pole, where a
+/// highlight's peak sits.
+pub const HALF_ANGLE_EDGES_DEG: [f64; 7] = [0.0, 2.0, 5.0, 10.0, 20.0, 45.0, 90.0];
+/// Edges (degrees) of the difference-angle bands of [`ErrorByAngle`].
+pub const DIFFERENCE_ANGLE_EDGES_DEG: [f64; 7] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0];
+const HALF_ANGLE_BANDS: usize = HALF_ANGLE_EDGES_DEG.len() - 1;
+const DIFFERENCE_ANGLE_BANDS: usize = DIFFERENCE_ANGLE_EDGES_DEG.len() - 1;
+
+/// Where the relative error of [`table_errors`] comes from, by the half angle θ_h (rows) and
+/// the difference angle θ_d (columns) of each entry (Rusinkiewicz's angles, at the bins'
+/// centres). A painting shows one θ_d per light, so a few bands hold what was painted and the
+/// rest is extrapolated; a sharp lobe's grazing mirror entries (small θ_h, large θ_d), which
+/// no light beside the camera paints, can hold most of the relative error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorByAngle {
+    /// Each cell's share of the squared relative error: its Σ((ρ̂ − ρ) cos θ_l cos θ_v)² over
+    /// the whole table's Σ(ρ cos θ_l cos θ_v)². The cells add up to the relative RMSE squared.
+    pub error: [[f64; DIFFERENCE_ANGLE_BANDS]; HALF_ANGLE_BANDS],
+    /// Each cell's share of the truth's Σ(ρ cos θ_l cos θ_v)²: where the reflectance is.
+    pub truth: [[f64; DIFFERENCE_ANGLE_BANDS]; HALF_ANGLE_BANDS],
+    /// Which way each cell errs, in [−1, 1]: the estimate's excess over the truth less its
+    /// shortfall, over their sum (+1: above the truth throughout, −1: below; 0 with no error).
+    pub direction: [[f64; DIFFERENCE_ANGLE_BANDS]; HALF_ANGLE_BANDS],
+}
+
+fn band_of(angle_deg: f64, edges: &[f64]) -> usize {
+    let last = edges.len() - 2;
+    edges[1..=last]
+        .iter()
+        .position(|&edge| angle_deg < edge)
+        .unwrap_or(last)
+}
+
+/// [`ErrorByAngle`] of an estimate against the truth, weighted as [`table_errors`] weighs them.
+pub fn error_by_angle(truth: &SymTable, estimate: &SymTable) -> ErrorByAngle {
+    let cos: Vec<f64> = (0..crate::table::THETA_BINS)
+        .map(|t| theta_centre(t).cos())
+        .collect();
+    let zero = [[0f64; DIFFERENCE_ANGLE_BANDS]; HALF_ANGLE_BANDS];
+    let (mut err2, mut ref2, mut over, mut under) = (zero, zero, zero, zero);
+    let mut total_ref2 = 0f64;
+    let (t_vals, e_vals) = (truth.pairs(), estimate.pairs());
+    for_each_pair(|pair, lo, hi| {
+        let w = if lo == hi { 1.0 } else { 2.0 };
+        let (t_l, t_v) = (lo as usize / PHI_BINS, hi as usize / PHI_BINS);
+        let cc = cos[t_l] * cos[t_v];
+        let (l, v) = (bin_centre(lo), bin_centre(hi));
+        let h = (l + v).normalize_or(glam::DVec3::Z);
+        let theta_h = h.z.clamp(-1.0, 1.0).acos().to_degrees();
+        let theta_d = l.dot(h).clamp(-1.0, 1.0).acos().to_degrees();
+        let (i, j) = (
+            band_of(theta_h, &HALF_ANGLE_EDGES_DEG),
+            band_of(theta_d, &DIFFERENCE_ANGLE_EDGES_DEG),
+        );
+        for ch in 0..3 {
+            let (t, e) = (
+                t_vals[pair.index()][ch] as f64,
+                e_vals[pair.index()][ch] as f64,
+            );
+            let difference = (e - t) * cc;
+            err2[i][j] += w * difference * difference;
+            ref2[i][j] += w * (t * cc).powi(2);
+            total_ref2 += w * (t * cc).powi(2);
+            if difference > 0.0 {
+                over[i][j] += w * difference;
+            } else {
+                under[i][j] -= w * difference;
+            }
+        }
+    });
+    // As `table_errors`: an all-zero truth leaves the error absolute.
+    let scale = if total_ref2 > 0.0 { total_ref2 } else { 1.0 };
+    let mut breakdown = ErrorByAngle {
+        error: zero,
+        truth: zero,
+        direction: zero,
+    };
+    for i in 0..HALF_ANGLE_BANDS {
+        for j in 0..DIFFERENCE_ANGLE_BANDS {
+            breakdown.error[i][j] = err2[i][j] / scale;
+            breakdown.truth[i][j] = if total_ref2 > 0.0 {
+                ref2[i][j] / total_ref2
+            } else {
+                0.0
+            };
+            let sum = over[i][j] + under[i][j];
+            breakdown.direction[i][j] = if sum > 0.0 {
+                (over[i][j] - under[i][j]) / sum
+            } else {
+                0.0
+            };
+        }
+    }
+    breakdown
+}
+
 /// Every figure `eval` reports.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Evaluation {
@@ -120,5 +216,102 @@ pub fn evaluate(truth: &SymTable, estimate: &SymTable) -> Evaluation {
         log_rmse: errors.log_rmse,
         psnr_db,
         median_psnr_db,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::DirIndex;
+
+    /// Direction bin of polar bin `t` and azimuth bin `p` (TABLE.md: d = 36 t + p).
+    fn direction(t: usize, p: usize) -> DirIndex {
+        (t * PHI_BINS + p) as DirIndex
+    }
+
+    /// A glossy truth: a constant diffuse under a lobe about the half vector.
+    fn glossy() -> SymTable {
+        SymTable::from_fn(|d_l, d_v| {
+            let h = (bin_centre(d_l) + bin_centre(d_v)).normalize();
+            let rho = 0.1 + 5.0 * h.z.powi(200);
+            [rho as f32, 0.5 * rho as f32, 0.25 * rho as f32]
+        })
+    }
+
+    /// The cells split the relative RMSE without remainder, and the truth's share adds to one.
+    #[test]
+    fn the_cells_add_up_to_the_relative_rmse() {
+        let truth = glossy();
+        let estimate = SymTable::from_fn(|d_l, d_v| {
+            let value = truth.get(d_l, d_v);
+            let scale = if bin_centre(d_l).z < 0.5 { 1.3 } else { 0.9 };
+            value.map(|v| v * scale)
+        });
+        let by_angle = error_by_angle(&truth, &estimate);
+        let total: f64 = by_angle.error.iter().flatten().sum();
+        let relative = table_errors(&truth, &estimate).relative_rmse;
+        assert!(
+            (total - relative * relative).abs() <= 1e-9 * relative * relative,
+            "cells {total}, relative RMSE² {}",
+            relative * relative
+        );
+        let truth_total: f64 = by_angle.truth.iter().flatten().sum();
+        assert!((truth_total - 1.0).abs() < 1e-9, "{truth_total}");
+        // The lobe's energy sits at small half angles.
+        let near_pole: f64 = by_angle.truth[..3].iter().flatten().sum();
+        assert!(near_pole > 0.3, "{:?}", by_angle.truth);
+        assert!(
+            by_angle
+                .direction
+                .iter()
+                .flatten()
+                .all(|d| (-1.0..=1.0).contains(d)),
+            "{:?}",
+            by_angle.direction
+        );
+        let same = error_by_angle(&truth, &truth);
+        assert!(same.error.iter().flatten().all(|&e| e == 0.0));
+        assert!(same.direction.iter().flatten().all(|&d| d == 0.0));
+    }
+
+    /// An error at the back-scattering pole and one at the grazing mirror land in their own
+    /// cells, with the way each errs.
+    #[test]
+    fn an_error_lands_in_the_cell_of_its_angles() {
+        let truth = glossy();
+        let mut estimate = truth.clone();
+        // θ_l = θ_v = 1°, same azimuth: θ_h = 1°, θ_d = 0°.
+        let pole = direction(0, 0);
+        estimate.set(pole, pole, truth.get(pole, pole).map(|v| v + 1.0));
+        // θ_l = θ_v = 89° at opposite azimuths: the mirror at grazing, θ_h ≈ 0°, θ_d ≈ 89°.
+        let (l, v) = (direction(44, 0), direction(44, 18));
+        estimate.set(l, v, truth.get(l, v).map(|v| 0.5 * v));
+        let by_angle = error_by_angle(&truth, &estimate);
+        let last = DIFFERENCE_ANGLE_BANDS - 1;
+        for i in 0..HALF_ANGLE_BANDS {
+            for j in 0..DIFFERENCE_ANGLE_BANDS {
+                let (error, direction) = (by_angle.error[i][j], by_angle.direction[i][j]);
+                match (i, j) {
+                    (0, 0) => assert!(error > 0.0 && direction == 1.0, "{error} {direction}"),
+                    (0, j) if j == last => {
+                        assert!(error > 0.0 && direction == -1.0, "{error} {direction}")
+                    }
+                    _ => assert!(error == 0.0 && direction == 0.0, "cell {i}, {j}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn angles_on_an_edge_fall_in_the_band_above_it() {
+        assert_eq!(band_of(0.0, &HALF_ANGLE_EDGES_DEG), 0);
+        assert_eq!(band_of(1.99, &HALF_ANGLE_EDGES_DEG), 0);
+        assert_eq!(band_of(2.0, &HALF_ANGLE_EDGES_DEG), 1);
+        assert_eq!(band_of(89.9, &HALF_ANGLE_EDGES_DEG), HALF_ANGLE_BANDS - 1);
+        assert_eq!(
+            band_of(90.0, &DIFFERENCE_ANGLE_EDGES_DEG),
+            DIFFERENCE_ANGLE_BANDS - 1
+        );
+        assert_eq!(band_of(15.0, &DIFFERENCE_ANGLE_EDGES_DEG), 1);
     }
 }

@@ -117,6 +117,96 @@ fn the_example_reconstructs_end_to_end() {
     assert_eq!(json["psnr_db"].as_array().map(Vec::len), Some(8), "{json}");
 }
 
+/// `eval --by-angle` says where the error is: a glossy plastic scored against its diffuse
+/// alone (the lobe left out) errs only below the truth, the cells add up to the relative RMSE
+/// squared, and most of the error sits where the lobe peaks (θ_h under 10°).
+#[test]
+fn eval_by_angle_shows_where_the_error_is() {
+    use burnish::materials::{models::Lambert, tabulate};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cache = d.join("cache");
+    let material = burnish::bench::held_out::hand_built_materials(5)
+        .into_iter()
+        .find(|m| m.name == "hand-lambert-ggx")
+        .unwrap();
+    let truth = d.join("truth.exr");
+    burnish::table::exr_file::write_table_exr(&truth, &tabulate(&*material.brdf)).unwrap();
+    let diffuse = d.join("diffuse.exr");
+    let without_the_lobe = Lambert {
+        albedo: [0.05, 0.35, 0.08],
+    };
+    burnish::table::exr_file::write_table_exr(&diffuse, &tabulate(&without_the_lobe)).unwrap();
+    let args = [
+        "eval",
+        "--truth",
+        path_str(&truth),
+        "--estimate",
+        path_str(&diffuse),
+        "--by-angle",
+    ];
+    let o = burnish(&[&args[..], &["--json"]].concat(), &cache);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let json: serde_json::Value = serde_json::from_str(&text(&o.stdout)).unwrap();
+    let grid = |key: &str| -> Vec<Vec<f64>> {
+        json["by_angle"][key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|row| {
+                row.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_f64().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let (error, truth_share, direction) = (grid("error"), grid("truth"), grid("direction"));
+    let rows = json["by_angle"]["theta_h_edges_deg"]
+        .as_array()
+        .unwrap()
+        .len()
+        - 1;
+    let columns = json["by_angle"]["theta_d_edges_deg"]
+        .as_array()
+        .unwrap()
+        .len()
+        - 1;
+    assert_eq!((error.len(), error[0].len()), (rows, columns), "{json}");
+    let total: f64 = error.iter().flatten().sum();
+    let relative = json["relative_rmse"].as_f64().unwrap();
+    assert!(
+        (total - relative * relative).abs() < 1e-9 * relative * relative,
+        "{total} against {relative}²"
+    );
+    assert!((truth_share.iter().flatten().sum::<f64>() - 1.0).abs() < 1e-9);
+    assert!(
+        direction.iter().flatten().all(|&d| d <= 0.0) && direction[0][0] == -1.0,
+        "{direction:?}"
+    );
+    // θ_h edges 0, 2, 5, 10, …: the first three rows.
+    let at_the_peak: f64 = error[..3].iter().flatten().sum();
+    assert!(at_the_peak > 0.5 * total, "{error:?}");
+
+    let o = burnish(&args, &cache);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(out.contains("share of the squared relative error"), "{out}");
+    let grid_rows: Vec<&str> = out
+        .lines()
+        .skip_while(|line| !line.contains("θ_h \\ θ_d"))
+        .skip(1)
+        .collect();
+    assert_eq!(grid_rows.len(), rows, "{out}");
+    assert!(grid_rows[0].trim_start().starts_with("0–2°"), "{out}");
+    assert!(out.contains("75–90°"), "{out}");
+    assert!(
+        grid_rows.iter().all(|row| !row.contains('+')) && grid_rows[0].contains('−'),
+        "{out}"
+    );
+}
+
 /// Writes `contents` to `dir/name` and returns the path as a string.
 fn write(dir: &Path, name: &str, contents: &[u8]) -> String {
     let path = dir.join(name);

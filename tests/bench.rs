@@ -403,6 +403,22 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
     assert_eq!(csv.lines().count(), 1 + report.rows.len());
     let columns = csv.lines().next().unwrap().split(',').count();
     assert!(csv.lines().all(|l| l.split(',').count() == columns));
+    assert!(
+        csv.starts_with("method,")
+            && csv
+                .lines()
+                .next()
+                .unwrap()
+                .ends_with(",grazing_mirror_share")
+    );
+    // Where each row's error lies: a share, and none where there is no error.
+    for r in &report.rows {
+        assert!(
+            (0.0..=1.0).contains(&r.grazing_mirror_share)
+                && (r.relative_rmse > 0.0 || r.grazing_mirror_share == 0.0),
+            "{r:?}"
+        );
+    }
     let png = image::open(out.join("bench_pareto.png")).unwrap();
     assert_eq!((png.width(), png.height()), (1400, 900));
     let md = std::fs::read_to_string(out.join("BENCHMARKS.md")).unwrap();
@@ -411,6 +427,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
         "## Next view: suggested against random",
         "burnish bench --test",
         "bench_pareto.png",
+        "| grazing mirror |",
         &report.machine.cpu,
     ] {
         assert!(md.contains(needle), "{needle} in the summary");

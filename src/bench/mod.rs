@@ -25,7 +25,7 @@ use crate::basis::{Basis, BasisCache, BasisSpec, CacheOutcome};
 use crate::error::Result;
 use crate::image_io::RgbImage;
 use crate::materials::tabulate;
-use crate::metrics::evaluate;
+use crate::metrics::{error_by_angle, evaluate};
 use crate::scene::{
     CameraSettings, GBuffer, LightSettings, Object, PaintRange, SampleCounts, SampleSet, Scene,
     render_table, samples_from_image_in, srgb_decode, srgb_encode,
@@ -259,6 +259,9 @@ pub struct Row {
     pub relative_rmse: f64,
     pub log_rmse: f64,
     pub median_psnr_db: f64,
+    /// The share of its squared relative error at the grazing mirror (θ_h under 5°, θ_d over
+    /// 60°), which no light beside the camera paints.
+    pub grazing_mirror_share: f64,
     /// Samples to full table: sample extraction, binning, solve (or fit) and materialisation.
     pub time_ms: f64,
     pub samples_used: usize,
@@ -690,6 +693,7 @@ fn sparse_row(
         relative_rmse: e.relative_rmse,
         log_rmse: e.log_rmse,
         median_psnr_db: e.median_psnr_db,
+        grazing_mirror_share: error_by_angle(truth, &estimate).grazing_mirror_share(),
         time_ms,
         samples_used: table.sample_count(),
         observed_bins: table.observed_count(),
@@ -725,6 +729,7 @@ fn analytic_row(
         relative_rmse: e.relative_rmse,
         log_rmse: e.log_rmse,
         median_psnr_db: e.median_psnr_db,
+        grazing_mirror_share: error_by_angle(truth, &estimate).grazing_mirror_share(),
         time_ms,
         samples_used: table.sample_count(),
         observed_bins: bins.len(),
@@ -747,6 +752,7 @@ fn oracle_row(m: &HeldOut, truth: &SymTable, projector: &OracleProjector, k: usi
         relative_rmse: e.relative_rmse,
         log_rmse: e.log_rmse,
         median_psnr_db: e.median_psnr_db,
+        grazing_mirror_share: error_by_angle(truth, &estimate).grazing_mirror_share(),
         time_ms,
         samples_used: 0,
         observed_bins: crate::table::PAIRS,

@@ -276,7 +276,10 @@ impl BenchReport {
         let _ = writeln!(md, "\n![Pareto plot](bench_pareto.png)\n");
         let _ = writeln!(
             md,
-            "Per material (relative RMSE): the paper's configuration, the oracle and the analytic fit.\n"
+            "Per material (relative RMSE): the paper's configuration, the oracle and the analytic fit; \
+             then the share of the paper configuration's squared error at the grazing mirror (θ_h under \
+             5°, θ_d over 60°), where a sharp lobe's Fresnel and masking peak and which no light \
+             beside the camera paints (`burnish eval --by-angle` shows the whole breakdown).\n"
         );
         let paper = crate::bench::Method::Sparse(self.paper).label();
         let oracle = crate::bench::Method::Oracle {
@@ -291,18 +294,23 @@ impl BenchReport {
         .label();
         let _ = writeln!(
             md,
-            "| material | family | Lambert + GGX | `{paper}` | `{oracle}` | `{analytic}` |\n|---|---|---|---|---|---|"
+            "| material | family | Lambert + GGX | `{paper}` | `{oracle}` | `{analytic}` | grazing mirror |\n|---|---|---|---|---|---|---|"
         );
         for (name, family, lg) in &materials {
-            let value = |label: &str| {
+            let row = |label: &str| {
                 self.rows
                     .iter()
                     .find(|r| r.material == *name && r.method.label() == label)
-                    .map_or("—".to_string(), |r| format!("{:.3}", r.relative_rmse))
             };
+            let value = |label: &str| {
+                row(label).map_or("—".to_string(), |r| format!("{:.3}", r.relative_rmse))
+            };
+            let mirror = row(&paper).map_or("—".to_string(), |r| {
+                format!("{:.0}%", 100.0 * r.grazing_mirror_share)
+            });
             let _ = writeln!(
                 md,
-                "| {name} | {family} | {} | {} | {} | {} |",
+                "| {name} | {family} | {} | {} | {} | {} | {mirror} |",
                 if *lg { "yes" } else { "no" },
                 value(&paper),
                 value(&oracle),

@@ -386,7 +386,7 @@ impl BenchReport {
     /// One row per method and material.
     pub fn csv(&self) -> String {
         let mut out = String::from(
-            "method,kind,axis,components,regularization,views,resolution,paint,policy,material,family,lambert_ggx,relative_rmse,log_rmse,median_psnr_db,time_ms,samples_used,observed_bins,pixels_background,pixels_shadow,pixels_grazing\n",
+            "method,kind,axis,components,regularization,views,resolution,paint,policy,material,family,lambert_ggx,relative_rmse,log_rmse,median_psnr_db,time_ms,samples_used,observed_bins,pixels_background,pixels_shadow,pixels_grazing,grazing_mirror_share\n",
         );
         for r in &self.rows {
             let (k, reg, views, res, paint, policy) = match r.method {
@@ -421,7 +421,7 @@ impl BenchReport {
             };
             let _ = writeln!(
                 out,
-                "{},{},{},{k},{reg},{views},{res},{paint},{policy},{},{},{},{:.6},{:.6},{:.3},{:.3},{},{},{},{},{}",
+                "{},{},{},{k},{reg},{views},{res},{paint},{policy},{},{},{},{:.6},{:.6},{:.3},{:.3},{},{},{},{},{},{:.4}",
                 r.method.label(),
                 r.method.kind(),
                 r.axis,
@@ -437,6 +437,7 @@ impl BenchReport {
                 r.counts.background,
                 r.counts.shadow,
                 r.counts.grazing,
+                r.grazing_mirror_share,
             );
         }
         out

@@ -122,21 +122,11 @@ fn the_example_reconstructs_end_to_end() {
 /// squared, and most of the error sits where the lobe peaks (θ_h under 10°).
 #[test]
 fn eval_by_angle_shows_where_the_error_is() {
-    use burnish::materials::{models::Lambert, tabulate};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let cache = d.join("cache");
-    let material = burnish::bench::held_out::hand_built_materials(5)
-        .into_iter()
-        .find(|m| m.name == "hand-lambert-ggx")
-        .unwrap();
-    let truth = d.join("truth.exr");
-    burnish::table::exr_file::write_table_exr(&truth, &tabulate(&*material.brdf)).unwrap();
-    let diffuse = d.join("diffuse.exr");
-    let without_the_lobe = Lambert {
-        albedo: [0.05, 0.35, 0.08],
-    };
-    burnish::table::exr_file::write_table_exr(&diffuse, &tabulate(&without_the_lobe)).unwrap();
+    // The plastic's own diffuse, without its lobe.
+    let (truth, diffuse) = plastic_and_lambert(d, "diffuse", [0.05, 0.35, 0.08]);
     let args = [
         "eval",
         "--truth",
@@ -205,6 +195,21 @@ fn eval_by_angle_shows_where_the_error_is() {
         grid_rows.iter().all(|row| !row.contains('+')) && grid_rows[0].contains('−'),
         "{out}"
     );
+}
+
+/// Writes the hand-built Lambert + GGX plastic (a material the database never made) to
+/// `dir/truth.exr` and a Lambertian table of `albedo` to `dir/{name}.exr`; returns both paths.
+fn plastic_and_lambert(dir: &Path, name: &str, albedo: [f64; 3]) -> (PathBuf, PathBuf) {
+    use burnish::materials::{models::Lambert, tabulate};
+    use burnish::table::exr_file::write_table_exr;
+    let material = burnish::bench::held_out::hand_built_materials(5)
+        .into_iter()
+        .find(|m| m.name == "hand-lambert-ggx")
+        .unwrap();
+    let (truth, lambert) = (dir.join("truth.exr"), dir.join(format!("{name}.exr")));
+    write_table_exr(&truth, &tabulate(&*material.brdf)).unwrap();
+    write_table_exr(&lambert, &tabulate(&Lambert { albedo })).unwrap();
+    (truth, lambert)
 }
 
 /// Writes `contents` to `dir/name` and returns the path as a string.
@@ -285,21 +290,11 @@ fn render_shows_a_lambertian_sphere_as_the_spec_says() {
 /// 1.15×; a 15% regression fails) and well ahead of the guide's grey diffuse guess.
 #[test]
 fn a_reconstruction_from_a_render_scores_close_to_the_truth() {
-    use burnish::materials::{models::Lambert, tabulate};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let cache = d.join("cache");
-    let material = burnish::bench::held_out::hand_built_materials(5)
-        .into_iter()
-        .find(|m| m.name == "hand-lambert-ggx")
-        .unwrap();
-    let truth = d.join("truth.exr");
-    burnish::table::exr_file::write_table_exr(&truth, &tabulate(&*material.brdf)).unwrap();
-    let grey = d.join("grey.exr");
-    let guide_grey = Lambert {
-        albedo: [0.5, 0.5, 0.5],
-    };
-    burnish::table::exr_file::write_table_exr(&grey, &tabulate(&guide_grey)).unwrap();
+    // The guide's grey diffuse guess.
+    let (truth, grey) = plastic_and_lambert(d, "grey", [0.5, 0.5, 0.5]);
     let painting = d.join("painting.exr");
     let o = burnish(
         &[

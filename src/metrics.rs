@@ -144,7 +144,6 @@ pub fn error_by_angle(truth: &SymTable, estimate: &SymTable) -> ErrorByAngle {
     );
     let zero = [[0f64; DIFFERENCE_ANGLE_BANDS]; HALF_ANGLE_BANDS];
     let (mut err2, mut ref2, mut over, mut under) = (zero, zero, zero, zero);
-    let mut total_ref2 = 0f64;
     let (t_vals, e_vals) = (truth.pairs(), estimate.pairs());
     for_each_pair(|pair, lo, hi| {
         let w = if lo == hi { 1.0 } else { 2.0 };
@@ -164,7 +163,6 @@ pub fn error_by_angle(truth: &SymTable, estimate: &SymTable) -> ErrorByAngle {
             let difference = (e - t) * cc;
             err2[i][j] += w * difference * difference;
             ref2[i][j] += w * (t * cc).powi(2);
-            total_ref2 += w * (t * cc).powi(2);
             if difference > 0.0 {
                 over[i][j] += w * difference;
             } else {
@@ -172,6 +170,7 @@ pub fn error_by_angle(truth: &SymTable, estimate: &SymTable) -> ErrorByAngle {
             }
         }
     });
+    let total_ref2: f64 = ref2.iter().flatten().sum();
     // As `table_errors`: an all-zero truth leaves the error absolute.
     let scale = if total_ref2 > 0.0 { total_ref2 } else { 1.0 };
     let mut breakdown = ErrorByAngle {

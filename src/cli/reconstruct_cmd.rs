@@ -107,13 +107,14 @@ pub struct ReconstructArgs {
     /// has no more diffuse than specular, kept where it fits better by the factor R), and
     /// +haze or +haze:R (a metal's lobe split into a sharp peak and a broad glow of one
     /// Fresnel, tried where the fit has almost no diffuse, kept where it fits better by the
-    /// factor R; not the default yet: it lets some metals' error grow with added views), and
+    /// factor R), and
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
     /// weight, its reflectance at grazing incidence, moved toward S where the paint cannot
     /// tell it from F0; not the default: physics says 1, Phong lobes say F0, and one light
     /// cannot tell which a painting means). The default,
-    /// fitted:3+beckmann+edge:1.5+rough:1.2, is what `burnish calibrate` chose.
+    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2, is what `burnish calibrate` and the
+    /// bench chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -220,9 +220,9 @@ impl PriorMean {
     ///
     /// A haze (`+haze:R`: a metal's lobe split into a sharp peak and a broad glow of one
     /// Fresnel, each of either distribution, kept where it fits R times better) is part of the
-    /// default at R = 1.5 (measured last, below). Polished metals show a peak over a glow from grain and scratches;
-    /// one lobe settles between the two, and where the peak is clipped (8-bit paint) on the
-    /// glow alone, so the peak it extrapolates is far too low. At R = 1.5 the bench's
+    /// default at R = 1.5 (measured last, below). Polished metals show a peak over a glow
+    /// from grain and scratches; one lobe settles between the two, and where the peak is
+    /// clipped (8-bit paint) on the glow alone, so the peak it extrapolates is far too low. At R = 1.5 the bench's
     /// two-lobe gold (GGX α 0.05 over Beckmann α 0.4) goes 0.95 → 0.009 from one 8-bit view
     /// and 0.21 → 0.007 from one HDR view. Only a metal's fit may take one (a diffuse at most
     /// a tenth of its lobe's F0): with the conductor gate alone, a very rough lobe standing in

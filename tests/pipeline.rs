@@ -179,26 +179,10 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
 #[test]
 fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     let dir = tempfile::tempdir().unwrap();
-    let schlick = match PriorMean::FITTED {
-        PriorMean::Fitted {
-            margin_nats,
-            beckmann_margin,
-            coat_margin,
-            haze_margin,
-            rough_margin,
-            grazing_weight,
-            ..
-        } => PriorMean::Fitted {
-            margin_nats,
-            beckmann_margin,
-            coat_margin,
-            edge_margin: None,
-            haze_margin,
-            rough_margin,
-            grazing_weight,
-        },
-        PriorMean::Database => PriorMean::Database,
-    };
+    let mut schlick = PriorMean::FITTED;
+    if let PriorMean::Fitted { edge_margin, .. } = &mut schlick {
+        *edge_margin = None;
+    }
     let (mut hdr, mut ldr, mut hdr_schlick, mut ldr_schlick) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for i in 0..MATERIALS {
@@ -459,26 +443,10 @@ fn a_polished_metal_keeps_its_peak_from_one_clipped_view() {
         .find(|m| m.name == "hand-two-lobe-metal")
         .unwrap();
     let truth = tabulate(&*gold.brdf);
-    let one_lobe = match PriorMean::FITTED {
-        PriorMean::Fitted {
-            margin_nats,
-            beckmann_margin,
-            coat_margin,
-            edge_margin,
-            rough_margin,
-            grazing_weight,
-            ..
-        } => PriorMean::Fitted {
-            margin_nats,
-            beckmann_margin,
-            coat_margin,
-            edge_margin,
-            haze_margin: None,
-            rough_margin,
-            grazing_weight,
-        },
-        PriorMean::Database => PriorMean::Database,
-    };
+    let mut one_lobe = PriorMean::FITTED;
+    if let PriorMean::Fitted { haze_margin, .. } = &mut one_lobe {
+        *haze_margin = None;
+    }
     let score = |extension, mean| {
         evaluate(
             &truth,

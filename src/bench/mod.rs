@@ -211,6 +211,9 @@ pub fn policy_name(p: Policy) -> &'static str {
 }
 
 /// What produced a table.
+// A bench holds a few dozen methods, copied as labels and keys: the solver's configuration
+// inline keeps them `Copy`, and its size costs nothing there.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Method {
     /// The sparse solver from painted samples.

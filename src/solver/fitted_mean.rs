@@ -309,6 +309,7 @@ mod tests {
             haze_margin: Some(1.3),
             rough_margin: Some(1.4),
             grazing_weight: Some(0.9),
+            closer_margin: None,
         };
         let options = fit_options(mean);
         assert_eq!(options.beckmann_margin, Some(1.5));

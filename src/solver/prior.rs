@@ -135,6 +135,11 @@ pub enum PriorMean {
         /// incidence) from its F0, the weight it takes (the fit's `grazing_weight`); `None`:
         /// wherever the optimiser left it.
         grazing_weight: Option<f64>,
+        /// The fit is also taken, whatever the evidence, where the painted bins' misfit under
+        /// it (the residual after the correction plus the correction's cost under the prior)
+        /// is below the database mean's by this factor in root: a fit that explains the paint
+        /// this many times more closely; `None`: the evidence alone decides.
+        closer_margin: Option<f64>,
     },
 }
 
@@ -355,6 +360,7 @@ impl PriorMean {
         haze_margin: Some(1.5),
         rough_margin: Some(1.2),
         grazing_weight: None,
+        closer_margin: None,
     };
 
     pub fn name(&self) -> String {
@@ -368,6 +374,7 @@ impl PriorMean {
                 haze_margin,
                 rough_margin,
                 grazing_weight,
+                closer_margin,
             } => {
                 let mut name = if *margin_nats == f64::NEG_INFINITY {
                     "fitted".to_string()
@@ -381,6 +388,7 @@ impl PriorMean {
                     (HAZE, haze_margin),
                     (ROUGH, rough_margin),
                     (GRAZING, grazing_weight),
+                    (CLOSER, closer_margin),
                 ] {
                     match margin {
                         None => {}
@@ -402,6 +410,7 @@ const EDGE: &str = "edge";
 const HAZE: &str = "haze";
 const ROUGH: &str = "rough";
 const GRAZING: &str = "grazing";
+const CLOSER: &str = "closer";
 
 impl std::fmt::Display for PriorMean {
     /// The name [`std::str::FromStr`] reads back.
@@ -424,7 +433,7 @@ impl std::str::FromStr for PriorMean {
         let fitted = parts.next().unwrap_or_default();
         let (mut beckmann_margin, mut coat_margin, mut edge_margin, mut haze_margin) =
             (None, None, None, None);
-        let (mut rough_margin, mut grazing_weight) = (None, None);
+        let (mut rough_margin, mut grazing_weight, mut closer_margin) = (None, None, None);
         for option in parts {
             let (name, margin) = match option.split_once(':') {
                 None => (option, Some(1.0)),
@@ -440,9 +449,10 @@ impl std::str::FromStr for PriorMean {
                 HAZE => &mut haze_margin,
                 ROUGH => &mut rough_margin,
                 GRAZING => &mut grazing_weight,
+                CLOSER => &mut closer_margin,
                 _ => {
                     return Err(format!(
-                        "'{option}' is not a fit option (beckmann, coat, edge, haze, rough, each with an optional :R, or grazing:S)"
+                        "'{option}' is not a fit option (beckmann, coat, edge, haze, rough, closer, each with an optional :R, or grazing:S)"
                     ));
                 }
             };
@@ -462,7 +472,8 @@ impl std::str::FromStr for PriorMean {
             || edge_margin.is_some()
             || haze_margin.is_some()
             || rough_margin.is_some()
-            || grazing_weight.is_some();
+            || grazing_weight.is_some()
+            || closer_margin.is_some();
         let margin_nats = match fitted.split_once(':') {
             None if fitted == "database" && !options => {
                 return Ok(Self::Database);
@@ -488,6 +499,7 @@ impl std::str::FromStr for PriorMean {
             haze_margin,
             rough_margin,
             grazing_weight,
+            closer_margin,
         })
     }
 }
@@ -715,6 +727,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 3.0,
@@ -724,6 +737,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: -2.5,
@@ -733,6 +747,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: f64::NEG_INFINITY,
@@ -742,6 +757,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 3.0,
@@ -751,6 +767,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 3.0,
@@ -760,6 +777,7 @@ mod tests {
                 haze_margin: Some(2.0),
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             PriorMean::Fitted {
                 margin_nats: 1.0,
@@ -769,6 +787,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: Some(1.1),
                 grazing_weight: Some(0.5),
+                closer_margin: None,
             },
             PriorMean::FITTED,
         ] {
@@ -784,6 +803,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             })
         );
         assert_eq!(
@@ -796,6 +816,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             })
         );
         // As written on the command line: a margin of 1 as the bare option, and Display the
@@ -816,6 +837,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             }
             .to_string(),
             "fitted+beckmann+coat:1.25+edge"
@@ -830,6 +852,7 @@ mod tests {
                 haze_margin: Some(1.0),
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             })
         );
         assert_eq!(
@@ -842,8 +865,23 @@ mod tests {
                 haze_margin: None,
                 rough_margin: Some(1.0),
                 grazing_weight: None,
+                closer_margin: None,
             })
         );
+        assert_eq!(
+            "fitted:3+closer:2".parse::<PriorMean>(),
+            Ok(PriorMean::Fitted {
+                margin_nats: 3.0,
+                beckmann_margin: None,
+                coat_margin: None,
+                edge_margin: None,
+                haze_margin: None,
+                rough_margin: None,
+                grazing_weight: None,
+                closer_margin: Some(2.0),
+            })
+        );
+        assert!("fitted+closer:0".parse::<PriorMean>().is_err());
         assert!("fitted+rough:0".parse::<PriorMean>().is_err());
         assert!("fitted+haze+haze:2".parse::<PriorMean>().is_err());
         assert_eq!(PriorMean::Database.to_string(), "database");

@@ -20,6 +20,17 @@ const EVIDENCE_MIN_KNOT_SHARE: f64 = 0.05;
 const ALPHA_MIN: f64 = 1e-5;
 const ALPHA_MAX: f64 = 100.0;
 
+/// One ρ's evidence and the misfit in it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct EvidenceTerms {
+    pub(super) rho: f64,
+    /// Log marginal likelihood, up to a constant shared by every reference and ρ.
+    pub(super) log_evidence: f64,
+    /// Σ_c (y_cᵀWy_c − r_cᵀM⁻¹r_c): the painted bins' weighted squared residual after the
+    /// correction, plus the correction's cost under the prior, in mapped units.
+    pub(super) misfit: f64,
+}
+
 impl Solver {
     /// The model the next solve uses: the configured one, with a stronger band correlation
     /// when the painted bins ask for it ([`PriorModel::correlation_by_evidence`]). Only data at
@@ -96,14 +107,14 @@ impl Solver {
         }
     }
 
-    /// (ρ, log marginal likelihood) of the painted bins, measured from `reference` (`None`:
-    /// the basis's mean) with the prior centred on zero, for each of `correlations`.
-    pub(super) fn evidence_from(
+    /// The evidence of the painted bins measured from `reference` (`None`: the basis's mean)
+    /// with the prior centred on zero, for each of `correlations`, with its misfit.
+    pub(super) fn evidence_terms_from(
         &self,
         alpha: f64,
         reference: Option<&FittedReference>,
         correlations: impl IntoIterator<Item = f64>,
-    ) -> Vec<(f64, f64)> {
+    ) -> Vec<EvidenceTerms> {
         let d = self.dimension();
         let mut rhs = vec![[0.0; 3]; d];
         let mut yty = [0.0; 3];
@@ -144,6 +155,9 @@ impl Solver {
             r -= &nx0;
         }
         self.evidence_of(alpha, r, yty, correlations)
+            .into_iter()
+            .map(|t| (t.rho, t.log_evidence))
+            .collect()
     }
 
     /// The evidence for right-hand side `r` and yᵀWy `yty` (see [`Self::evidence`]).
@@ -153,7 +167,7 @@ impl Solver {
         r: Mat<f64>,
         yty: [f64; 3],
         correlations: impl IntoIterator<Item = f64>,
-    ) -> Vec<(f64, f64)> {
+    ) -> Vec<EvidenceTerms> {
         let d = self.dimension();
         let k = self.basis.components();
         let n = Mat::<f64>::from_fn(d, d, |i, j| self.normal[i * d + j]);
@@ -180,7 +194,11 @@ impl Solver {
             let log_det_p0 = -(k as f64) * log_det(c_llt.L());
             let minus_twice = misfit / alpha + 3.0 * (log_det(m_llt.L()) - log_det_p0);
             if minus_twice.is_finite() {
-                scored.push((rho, -0.5 * minus_twice));
+                scored.push(EvidenceTerms {
+                    rho,
+                    log_evidence: -0.5 * minus_twice,
+                    misfit,
+                });
             }
         }
         scored
@@ -595,7 +613,11 @@ mod tests {
         }
         assert!(!solver.censored.is_empty());
         let rho = MODEL.band_correlation;
-        let from = solver.evidence_from(DEFAULT_ALPHA, None, [rho]);
+        let from: Vec<(f64, f64)> = solver
+            .evidence_terms_from(DEFAULT_ALPHA, None, [rho])
+            .into_iter()
+            .map(|t| (t.rho, t.log_evidence))
+            .collect();
         let of_normal = solver.band_correlation_evidence(DEFAULT_ALPHA);
         assert_eq!(from.len(), 1);
         assert!((from[0].1 - of_normal[0].1).abs() <= 1e-9 * from[0].1.abs());

@@ -327,18 +327,25 @@ impl Solver {
             return false;
         }
         let before = self.reference_ptr();
-        let margin = match self.model.mean {
-            PriorMean::Fitted { margin_nats, .. } => margin_nats,
-            PriorMean::Database => f64::INFINITY,
+        let (margin, closer) = match self.model.mean {
+            PriorMean::Fitted {
+                margin_nats,
+                closer_margin,
+                ..
+            } => (margin_nats, closer_margin),
+            PriorMean::Database => (f64::INFINITY, None),
         };
         let reference = fitted.reference;
         let accepted = margin == f64::NEG_INFINITY || {
             let alpha = self.evidence_alpha();
             let rho = [self.model.band_correlation];
-            let with = self.evidence_from(alpha, Some(&reference), rho);
-            let without = self.evidence_from(alpha, None, rho);
+            let with = self.evidence_terms_from(alpha, Some(&reference), rho);
+            let without = self.evidence_terms_from(alpha, None, rho);
             match (with.first(), without.first()) {
-                (Some(&(_, with)), Some(&(_, without))) => with - without > margin,
+                (Some(with), Some(without)) => {
+                    with.log_evidence - without.log_evidence > margin
+                        || closer.is_some_and(|r| with.misfit * r * r <= without.misfit)
+                }
                 _ => false,
             }
         };
@@ -1291,6 +1298,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                closer_margin: None,
             },
             ..MODEL
         }
@@ -1382,8 +1390,8 @@ mod tests {
         let probe = solver_with(fitted_model(0.0), Regularization::Auto, &bins);
         let alpha = probe.evidence_alpha();
         let rho = [MODEL.band_correlation];
-        let with = probe.evidence_from(alpha, Some(&**smooth), rho)[0].1;
-        let without = probe.evidence_from(alpha, None, rho)[0].1;
+        let with = probe.evidence_terms_from(alpha, Some(&**smooth), rho)[0].log_evidence;
+        let without = probe.evidence_terms_from(alpha, None, rho)[0].log_evidence;
         let gain = with - without;
         assert!(
             gain > 10.0,
@@ -1409,6 +1417,57 @@ mod tests {
             assert!(solver.prior_mean_is_current());
             let reference = taken.then_some(&**smooth);
             assert_holds_from(&solver, reference, &bins, &format!("{:?}", model.mean));
+        }
+    }
+
+    /// Past the evidence, a fit is taken where the painted bins' misfit under it is below the
+    /// database mean's by the closer margin squared (the margin is in root): a fit that
+    /// explains the bins that much more closely, however little the evidence gains.
+    #[test]
+    fn a_fitted_mean_that_explains_the_bins_more_closely_is_taken_past_its_margin() {
+        let [smooth, _] = references();
+        let bins = plastic_bins();
+        let probe = solver_with(fitted_model(0.0), Regularization::Auto, &bins);
+        let alpha = probe.evidence_alpha();
+        let rho = [MODEL.band_correlation];
+        let with = probe.evidence_terms_from(alpha, Some(&**smooth), rho)[0];
+        let without = probe.evidence_terms_from(alpha, None, rho)[0];
+        assert!(with.misfit >= 0.0 && without.misfit > 0.0);
+        let closer = (without.misfit / with.misfit.max(1e-300)).sqrt();
+        assert!(
+            closer > 2.0,
+            "the plastic's own reference explains its bins: {closer}"
+        );
+        // No evidence gain takes the fit here: only the misfit can.
+        let never_by_evidence = |margin: Option<f64>| {
+            let mut model = fitted_model(f64::INFINITY);
+            if let PriorMean::Fitted { closer_margin, .. } = &mut model.mean {
+                *closer_margin = margin;
+            }
+            model
+        };
+        for (closer_margin, taken) in [
+            (Some(closer / 1.1), true),
+            (Some(closer * 1.1), false),
+            (None, false),
+        ] {
+            let mut solver = solver_with(
+                never_by_evidence(closer_margin),
+                Regularization::Auto,
+                &bins,
+            );
+            let fitted = FittedMean {
+                generation: solver.generation,
+                reference: smooth.clone(),
+            };
+            assert_eq!(
+                solver.install_fitted_mean(fitted),
+                taken,
+                "{closer_margin:?}"
+            );
+            assert_eq!(solver.reference().is_some(), taken);
+            let reference = taken.then_some(&**smooth);
+            assert_holds_from(&solver, reference, &bins, &format!("{closer_margin:?}"));
         }
     }
 

@@ -115,13 +115,16 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
     report("three views", &three);
     // Stated bounds for the 48-material test basis (K = 20) over six held-out materials,
     // about 5% (1 dB) from what is measured, so that a regression of that size fails: one
-    // view median relative RMSE 0.136, mean log RMSE 0.110, median PSNR 50.7 dB; three views
-    // mean relative RMSE 0.187, log RMSE 0.047, 69.3 dB (with the GGX reference alone: one
-    // view log RMSE 0.120, 49.5 dB, three views 0.310, 0.073, 68.3 dB; on the database's
-    // mean: one view 0.645 mean relative, 0.214 log, 39.3 dB; three views 0.433, 0.195,
-    // 43.0 dB).
+    // view median relative RMSE 0.082, mean log RMSE 0.059, median PSNR 73.7 dB; three views
+    // mean relative RMSE 0.183, log RMSE 0.047, 73.8 dB. Before a fit that explains the paint
+    // three times as closely as the database's mean was taken whatever the evidence
+    // (`+closer:3`), the rough plastic and the Lambert surface stayed on the mean from one
+    // view: one view 0.136, 0.110, 50.7 dB, three views 0.187, 0.047, 69.3 dB (with the GGX
+    // reference alone: one view log RMSE 0.120, 49.5 dB, three views 0.310, 0.073, 68.3 dB;
+    // on the database's mean: one view 0.645 mean relative, 0.214 log, 39.3 dB; three views
+    // 0.433, 0.195, 43.0 dB).
     //
-    // One view's mean relative RMSE (0.518) is not bounded: one material owns it. A Phong
+    // One view's mean relative RMSE (0.486) is not bounded: one material owns it. A Phong
     // n = 1280 highlight without Fresnel, seen under one light, is fitted by a lobe whose
     // Fresnel and 1/(4 cos θ_l cos θ_v) rise toward grazing where no bin was painted, and the
     // grazing mirror entries come out too bright (relative RMSE 2.0 with the Beckmann lobe,
@@ -129,20 +132,20 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
     // the fit can tell, it is bounded here so that it cannot get worse unseen.
     let median_one = median(&one, |e| e.relative_rmse);
     assert!(
-        median_one < 0.143,
+        median_one < 0.086,
         "one view: median relative RMSE {median_one}"
     );
     assert!(
         one.iter().all(|e| e.relative_rmse < 2.2),
         "one view: a material's relative RMSE beyond the Phong highlight's 2.0"
     );
-    assert!(mean(&one, |e| e.log_rmse) < 0.116, "one view: log RMSE");
+    assert!(mean(&one, |e| e.log_rmse) < 0.062, "one view: log RMSE");
     assert!(
-        mean(&one, |e| e.median_psnr_db) > 49.7,
+        mean(&one, |e| e.median_psnr_db) > 72.7,
         "one view: median PSNR"
     );
     assert!(
-        mean(&three, |e| e.relative_rmse) < 0.197,
+        mean(&three, |e| e.relative_rmse) < 0.192,
         "three views: relative RMSE"
     );
     assert!(
@@ -150,7 +153,7 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
         "three views: log RMSE"
     );
     assert!(
-        mean(&three, |e| e.median_psnr_db) > 68.3,
+        mean(&three, |e| e.median_psnr_db) > 72.8,
         "three views: median PSNR"
     );
     assert!(
@@ -178,6 +181,12 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
 /// make 8-bit paint worse than Schlick's reference does.
 #[test]
 fn eight_bit_paint_is_nearly_as_good_as_hdr() {
+    // What 8-bit paint may cost where HDR paint is exact, as a ratio cannot say: from one
+    // HDR view the rough plastic's fit is exact, from the 8-bit view (rounded to 1/255) it
+    // comes out at 0.0077, log 0.076 (both 0.112, log 0.153, while the evidence alone chose
+    // the reference).
+    const QUANTISATION_RELATIVE: f64 = 0.01;
+    const QUANTISATION_LOG: f64 = 0.1;
     let dir = tempfile::tempdir().unwrap();
     let mut schlick = PriorMean::FITTED;
     if let PriorMean::Fitted { edge_margin, .. } = &mut schlick {
@@ -210,12 +219,25 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
             ldr_schlick[i].log_rmse,
         );
     }
-    // Measured on the 48-material test basis: the median relative RMSE is 0.136 HDR, 0.141 8-bit;
-    // the largest gap is the clear coat's (0.745 HDR, 0.894 8-bit: its highlight is clipped
-    // and the fit sees only its shoulders). Before clipped bins were taken at the reference
-    // where it already meets them, chrome came out at 0.95 from 8-bit paint against 0.065.
-    // With the edge tint, chrome's HDR view is 0.0028 and its 8-bit view stays at 0.066.
-    let median_hdr = median(&hdr, relative_rmse);
+    // Measured on the 48-material test basis: the largest gap is the clear coat's (0.745 HDR,
+    // 0.894 8-bit: its highlight is clipped and the fit sees only its shoulders). Before
+    // clipped bins were taken at the reference where it already meets them, chrome came out
+    // at 0.95 from 8-bit paint against 0.065. With the edge tint, chrome's HDR view is 0.0028
+    // and its 8-bit view stays at 0.066. Since a fit that explains the paint three times as
+    // closely as the database's mean is taken (`+closer:3`), the plastic and the Lambert
+    // surface are exact from HDR paint (0.112 and 0.084 before) and 0.008 and 0.0002 from
+    // 8-bit: the median over what HDR paint tells under Schlick's Fresnel is 0.113, 8-bit's
+    // 0.118 (HDR with the edge tint: 0.082, chrome's exact peak now at the median).
+    let hdr_told: Vec<_> = (0..MATERIALS)
+        .map(|i| {
+            if hdr[i].relative_rmse >= hdr_schlick[i].relative_rmse {
+                hdr[i].clone()
+            } else {
+                hdr_schlick[i].clone()
+            }
+        })
+        .collect();
+    let median_hdr = median(&hdr_told, relative_rmse);
     let median_ldr = median(&ldr, relative_rmse);
     assert!(
         median_ldr <= 1.05 * median_hdr,
@@ -226,12 +248,12 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
         let hdr_relative = hdr[i].relative_rmse.max(hdr_schlick[i].relative_rmse);
         let hdr_log = hdr[i].log_rmse.max(hdr_schlick[i].log_rmse);
         assert!(
-            ldr[i].relative_rmse <= 1.25 * hdr_relative,
+            ldr[i].relative_rmse <= 1.25 * hdr_relative + QUANTISATION_RELATIVE,
             "{label}: 8-bit relative RMSE {:.4} against HDR {hdr_relative:.4}",
             ldr[i].relative_rmse,
         );
         assert!(
-            ldr[i].log_rmse <= 1.2 * hdr_log,
+            ldr[i].log_rmse <= 1.2 * hdr_log + QUANTISATION_LOG,
             "{label}: 8-bit log RMSE {:.4} against HDR {hdr_log:.4}",
             ldr[i].log_rmse,
         );

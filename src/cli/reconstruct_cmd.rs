@@ -112,9 +112,10 @@ pub struct ReconstructArgs {
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
     /// weight, its reflectance at grazing incidence, moved toward S where the paint cannot
     /// tell it from F0; not the default: physics says 1, Phong lobes say F0, and one light
-    /// cannot tell which a painting means). The default,
-    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2, is what `burnish calibrate` and the
-    /// bench chose.
+    /// cannot tell which a painting means), and +closer:R (the fit also taken, whatever the
+    /// evidence, where it explains the paint R times as closely as the database's mean
+    /// does). The default, fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+closer:3, is what
+    /// `burnish calibrate` and the bench chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -54,9 +54,12 @@ pub struct CalibrateArgs {
     pub censoring: Option<Vec<crate::solver::Censoring>>,
     /// Where the prior is centred, to score: database, fitted (Lambert + GGX fitted to the
     /// paint) or fitted:M (when the evidence gains more than M nats); a fitted one may add
-    /// +beckmann (a Beckmann lobe where it fits better) or +beckmann:R (R times better), and
-    /// +coat or +coat:R (a clear coat over the lobe, likewise), and +edge or +edge:R (a
-    /// conductor's Fresnel with an edge tint, likewise).
+    /// +beckmann (a Beckmann lobe where it fits better) or +beckmann:R (R times better),
+    /// +coat[:R] (a clear coat over the lobe, likewise), +edge[:R] (a conductor's Fresnel with
+    /// an edge tint, likewise), +haze[:R] (a metal's lobe over a broad glow, likewise),
+    /// +rough[:R] (an Oren–Nayar diffuse, likewise), +grazing:S (the specular weight S where
+    /// the paint cannot tell it from F0) and +closer:R (the fit also taken where it explains
+    /// the paint R times as closely as the database's mean). Default: the reconstruction's.
     #[arg(long, value_delimiter = ',')]
     pub mean: Option<Vec<crate::solver::PriorMean>>,
     /// Paint to score the candidates on: hdr, ldr or hdr,ldr (default: both).

@@ -4,7 +4,9 @@
 use burnish::export::exact::{ExactTable, isotropic_average};
 use burnish::export::{BsdfSettings, RglBsdf, rgl};
 use burnish::materials::Brdf;
-use burnish::materials::models::{Distribution, Fresnel, Lambert, Microfacet, Mixture};
+use burnish::materials::models::{
+    Distribution, Fresnel, Lambert, Microfacet, Mixture, Retroreflective,
+};
 use burnish::materials::tabulate;
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
@@ -542,8 +544,23 @@ fn reconstruct_starts_from_a_material() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let cache = d.join("cache");
-    // The starting material, as a .bsdf (read back through the reader) and as a table.
-    let material = tabulate(&plastic(0.3));
+    // The starting material, as a .bsdf (read back through the reader) and as a table: a
+    // plastic with a retro-reflective glow, which one light 52° from the camera paints
+    // nowhere (every pixel sees θ_d = 26°, where the glow is 500 times below its peak), so
+    // that only the start can keep it. (The plastic alone the fitted reference explains
+    // exactly from that view, with or without a start.)
+    let material = tabulate(&Mixture {
+        parts: vec![
+            (1.0, Box::new(plastic(0.3))),
+            (
+                1.0,
+                Box::new(Retroreflective {
+                    color: [0.3, 0.3, 0.3],
+                    exponent: 12.0,
+                }),
+            ),
+        ],
+    });
     let table = d.join("start.exr");
     burnish::table::exr_file::write_table_exr(&table, &material).unwrap();
     let bsdf = d.join("start.bsdf");
@@ -580,14 +597,20 @@ fn reconstruct_starts_from_a_material() {
     let score = |p: &Path| burnish::metrics::evaluate(&material, &read(p));
     let (without, with) = (score(&plain), score(&started));
     eprintln!(
-        "without a start: {:.1} dB, {:.1}%; from the .bsdf: {:.1} dB, {:.1}%",
+        "without a start: {:.1} dB, {:.1}%, log {:.3}; from the .bsdf: {:.1} dB, {:.1}%, log {:.3}",
         without.median_psnr_db,
         100.0 * without.relative_rmse,
+        without.log_rmse,
         with.median_psnr_db,
-        100.0 * with.relative_rmse
+        100.0 * with.relative_rmse,
+        with.log_rmse
     );
-    assert!(with.relative_rmse < without.relative_rmse);
-    assert!(with.median_psnr_db > without.median_psnr_db);
+    // Measured: relative RMSE 0.730 → 0.359, log RMSE 0.700 → 0.420. (The renders' median
+    // PSNR is not the measure here: without a start the fitted reference holds the plastic
+    // exactly, where the start's projection onto the basis is lossier, and most lights see
+    // the glow only faintly.)
+    assert!(with.relative_rmse < 0.7 * without.relative_rmse);
+    assert!(with.log_rmse < 0.8 * without.log_rmse);
 
     // A starting material that cannot be read fails at once, naming the file.
     let o = reconstruct(

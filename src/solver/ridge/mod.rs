@@ -1379,6 +1379,40 @@ mod tests {
         assert!(solver.reference().is_none() && !solver.prior_mean_is_current());
     }
 
+    /// A solver of `model` over `bins` given the fit `reference`: whether it takes it must be
+    /// `taken`, and either way the fit is installed and the bins are held from what is taken.
+    fn assert_installs_taken(
+        model: PriorModel,
+        reference: &Arc<FittedReference>,
+        bins: &BTreeMap<PairIndex, ([f64; 3], Bounds)>,
+        taken: bool,
+        label: &str,
+    ) {
+        let mut solver = solver_with(model, Regularization::Auto, bins);
+        let fitted = FittedMean {
+            generation: solver.generation,
+            reference: reference.clone(),
+        };
+        assert_eq!(solver.install_fitted_mean(fitted), taken, "{label}");
+        assert_eq!(solver.reference().is_some(), taken, "{label}");
+        assert!(solver.prior_mean_is_current(), "{label}");
+        assert_holds_from(&solver, taken.then_some(&**reference), bins, label);
+    }
+
+    /// The evidence's terms for the plastic's bins, measured from `reference` and from the
+    /// database's mean, at the calibrated prior's α and ρ.
+    fn plastic_evidence_with_and_without(
+        reference: &FittedReference,
+    ) -> (evidence::EvidenceTerms, evidence::EvidenceTerms) {
+        let probe = solver_with(fitted_model(0.0), Regularization::Auto, &plastic_bins());
+        let alpha = probe.evidence_alpha();
+        let rho = [MODEL.band_correlation];
+        (
+            probe.evidence_terms_from(alpha, Some(reference), rho)[0],
+            probe.evidence_terms_from(alpha, None, rho)[0],
+        )
+    }
+
     /// The fitted reference is taken exactly when it makes the bins more than e^margin times
     /// as likely as the database's mean does (the evidence is checked against the marginal
     /// likelihood in `evidence`); under the database's mean it never is. Either way the fit
@@ -1387,12 +1421,8 @@ mod tests {
     fn a_fitted_mean_is_taken_only_past_the_evidence_margin() {
         let [smooth, _] = references();
         let bins = plastic_bins();
-        let probe = solver_with(fitted_model(0.0), Regularization::Auto, &bins);
-        let alpha = probe.evidence_alpha();
-        let rho = [MODEL.band_correlation];
-        let with = probe.evidence_terms_from(alpha, Some(&**smooth), rho)[0].log_evidence;
-        let without = probe.evidence_terms_from(alpha, None, rho)[0].log_evidence;
-        let gain = with - without;
+        let (with, without) = plastic_evidence_with_and_without(smooth);
+        let gain = with.log_evidence - without.log_evidence;
         assert!(
             gain > 10.0,
             "the plastic's own reference explains its bins: {gain}"
@@ -1402,21 +1432,7 @@ mod tests {
             (fitted_model(gain + 1.0), false),
             (MODEL, false),
         ] {
-            let mut solver = solver_with(model, Regularization::Auto, &bins);
-            let fitted = FittedMean {
-                generation: solver.generation,
-                reference: smooth.clone(),
-            };
-            assert_eq!(
-                solver.install_fitted_mean(fitted),
-                taken,
-                "{:?}",
-                model.mean
-            );
-            assert_eq!(solver.reference().is_some(), taken);
-            assert!(solver.prior_mean_is_current());
-            let reference = taken.then_some(&**smooth);
-            assert_holds_from(&solver, reference, &bins, &format!("{:?}", model.mean));
+            assert_installs_taken(model, smooth, &bins, taken, &format!("{:?}", model.mean));
         }
     }
 
@@ -1427,11 +1443,7 @@ mod tests {
     fn a_fitted_mean_that_explains_the_bins_more_closely_is_taken_past_its_margin() {
         let [smooth, _] = references();
         let bins = plastic_bins();
-        let probe = solver_with(fitted_model(0.0), Regularization::Auto, &bins);
-        let alpha = probe.evidence_alpha();
-        let rho = [MODEL.band_correlation];
-        let with = probe.evidence_terms_from(alpha, Some(&**smooth), rho)[0];
-        let without = probe.evidence_terms_from(alpha, None, rho)[0];
+        let (with, without) = plastic_evidence_with_and_without(smooth);
         assert!(with.misfit >= 0.0 && without.misfit > 0.0);
         let closer = (without.misfit / with.misfit.max(1e-300)).sqrt();
         assert!(
@@ -1451,23 +1463,14 @@ mod tests {
             (Some(closer * 1.1), false),
             (None, false),
         ] {
-            let mut solver = solver_with(
+            let label = format!("{closer_margin:?}");
+            assert_installs_taken(
                 never_by_evidence(closer_margin),
-                Regularization::Auto,
+                smooth,
                 &bins,
-            );
-            let fitted = FittedMean {
-                generation: solver.generation,
-                reference: smooth.clone(),
-            };
-            assert_eq!(
-                solver.install_fitted_mean(fitted),
                 taken,
-                "{closer_margin:?}"
+                &label,
             );
-            assert_eq!(solver.reference().is_some(), taken);
-            let reference = taken.then_some(&**smooth);
-            assert_holds_from(&solver, reference, &bins, &format!("{closer_margin:?}"));
         }
     }
 

@@ -48,7 +48,9 @@
 //! map(ρ_p) − map(F_p), and the reconstruction adds the coefficients' part back onto map(F).
 //! The fit is too slow for the live loop, so it is installed apart
 //! (`Solver::install_fitted_mean`) and taken only when the evidence favours it by the model's
-//! margin; taking or dropping it re-measures every bin and rebuilds the normal equations.
+//! margin, or its misfit is below the database mean's by the closer margin (the evidence,
+//! weighed at the noise α, cannot tell two small misfits apart); taking or dropping it
+//! re-measures every bin and rebuilds the normal equations.
 //!
 //! **Updates.** N = Σ_p w_p ψ_pψ_pᵀ and r_c = Σ_p w_p ψ_p y_pc are kept up to date one bin change
 //! at a time (O(K²) when a bin appears, empties or its weight changes, O(K) when only its value

@@ -107,7 +107,9 @@ pub struct ReconstructArgs {
     /// has no more diffuse than specular, kept where it fits better by the factor R), and
     /// +haze or +haze:R (a metal's lobe split into a sharp peak and a broad glow of one
     /// Fresnel, tried where the fit has almost no diffuse, kept where it fits better by the
-    /// factor R), and
+    /// factor R), +dielectric or +dielectric:R (a dielectric's exact Fresnel instead of
+    /// Schlick's, tried where the fit has more diffuse than specular and the views span
+    /// θ_d over 10°, kept where it fits better by the factor R), and
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
     /// weight, its reflectance at grazing incidence, moved toward S where the paint cannot

@@ -162,6 +162,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             haze_margin,
             rough_margin,
             grazing_weight,
+            dielectric_margin,
             ..
         } => FitOptions {
             beckmann_margin,
@@ -170,6 +171,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             haze_margin,
             rough_margin,
             grazing_weight,
+            dielectric_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -309,6 +311,7 @@ mod tests {
             haze_margin: Some(1.3),
             rough_margin: Some(1.4),
             grazing_weight: Some(0.9),
+            dielectric_margin: Some(1.6),
             closer_margin: None,
         };
         let options = fit_options(mean);
@@ -318,6 +321,7 @@ mod tests {
         assert_eq!(options.haze_margin, Some(1.3));
         assert_eq!(options.rough_margin, Some(1.4));
         assert_eq!(options.grazing_weight, Some(0.9));
+        assert_eq!(options.dielectric_margin, Some(1.6));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

@@ -135,6 +135,10 @@ pub enum PriorMean {
         /// incidence) from its F0, the weight it takes (the fit's `grazing_weight`); `None`:
         /// wherever the optimiser left it.
         grazing_weight: Option<f64>,
+        /// The lobe's Fresnel is a dielectric's, exact, rather than Schlick's when that fits
+        /// the bins better by this factor, plain and brightness-weighted, tried where the
+        /// paint spans θ_d over 10° (the fit's `dielectric_margin`); `None`: Schlick's.
+        dielectric_margin: Option<f64>,
         /// The fit is also taken, whatever the evidence, where the painted bins' misfit under
         /// it (the residual after the correction plus the correction's cost under the prior)
         /// is below the database mean's by this factor in root: a fit that explains the paint
@@ -382,6 +386,7 @@ impl PriorMean {
         haze_margin: Some(1.5),
         rough_margin: Some(1.2),
         grazing_weight: None,
+        dielectric_margin: None,
         closer_margin: Some(3.0),
     };
 
@@ -396,6 +401,7 @@ impl PriorMean {
                 haze_margin,
                 rough_margin,
                 grazing_weight,
+                dielectric_margin,
                 closer_margin,
             } => {
                 let mut name = if *margin_nats == f64::NEG_INFINITY {
@@ -410,6 +416,7 @@ impl PriorMean {
                     (HAZE, haze_margin),
                     (ROUGH, rough_margin),
                     (GRAZING, grazing_weight),
+                    (DIELECTRIC, dielectric_margin),
                     (CLOSER, closer_margin),
                 ] {
                     match margin {
@@ -433,6 +440,7 @@ const HAZE: &str = "haze";
 const ROUGH: &str = "rough";
 const GRAZING: &str = "grazing";
 const CLOSER: &str = "closer";
+const DIELECTRIC: &str = "dielectric";
 
 impl std::fmt::Display for PriorMean {
     /// The name [`std::str::FromStr`] reads back.
@@ -447,7 +455,8 @@ impl std::str::FromStr for PriorMean {
     /// either fitted one followed by any of `+beckmann` (a Beckmann lobe when it fits
     /// better), `+beckmann:R` (when it fits R times better), `+coat` and `+coat:R`
     /// (a clear coat over the lobe, likewise), `+edge` and `+edge:R` (a conductor's Fresnel
-    /// with an edge tint, likewise), `+haze[:R]` (a haze beside a metal's lobe) and
+    /// with an edge tint, likewise), `+dielectric[:R]` (a dielectric's exact Fresnel,
+    /// likewise), `+haze[:R]` (a haze beside a metal's lobe) and
     /// `+rough[:R]` (an Oren–Nayar diffuse), and `+grazing[:S]` (the specular weight S,
     /// at most 1, where the paint cannot tell it from F0).
     fn from_str(s: &str) -> Result<Self, String> {
@@ -456,6 +465,7 @@ impl std::str::FromStr for PriorMean {
         let (mut beckmann_margin, mut coat_margin, mut edge_margin, mut haze_margin) =
             (None, None, None, None);
         let (mut rough_margin, mut grazing_weight, mut closer_margin) = (None, None, None);
+        let mut dielectric_margin = None;
         for option in parts {
             let (name, margin) = match option.split_once(':') {
                 None => (option, Some(1.0)),
@@ -472,9 +482,10 @@ impl std::str::FromStr for PriorMean {
                 ROUGH => &mut rough_margin,
                 GRAZING => &mut grazing_weight,
                 CLOSER => &mut closer_margin,
+                DIELECTRIC => &mut dielectric_margin,
                 _ => {
                     return Err(format!(
-                        "'{option}' is not a fit option (beckmann, coat, edge, haze, rough, closer, each with an optional :R, or grazing:S)"
+                        "'{option}' is not a fit option (beckmann, coat, edge, dielectric, haze, rough, closer, each with an optional :R, or grazing:S)"
                     ));
                 }
             };
@@ -495,6 +506,7 @@ impl std::str::FromStr for PriorMean {
             || haze_margin.is_some()
             || rough_margin.is_some()
             || grazing_weight.is_some()
+            || dielectric_margin.is_some()
             || closer_margin.is_some();
         let margin_nats = match fitted.split_once(':') {
             None if fitted == "database" && !options => {
@@ -508,8 +520,8 @@ impl std::str::FromStr for PriorMean {
             _ => {
                 return Err(format!(
                     "unknown prior mean '{s}' (database, fitted, fitted:M, each fitted one \
-                     with optional +beckmann[:R], +coat[:R], +edge[:R], +haze[:R], +rough[:R] and \
-                     +grazing[:S])"
+                     with optional +beckmann[:R], +coat[:R], +edge[:R], +dielectric[:R], +haze[:R], \
+                     +rough[:R], +closer[:R] and +grazing[:S])"
                 ));
             }
         };
@@ -521,6 +533,7 @@ impl std::str::FromStr for PriorMean {
             haze_margin,
             rough_margin,
             grazing_weight,
+            dielectric_margin,
             closer_margin,
         })
     }
@@ -749,6 +762,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::Fitted {
@@ -759,6 +773,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::Fitted {
@@ -769,6 +784,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::Fitted {
@@ -779,6 +795,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::Fitted {
@@ -789,6 +806,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::Fitted {
@@ -799,6 +817,7 @@ mod tests {
                 haze_margin: Some(2.0),
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::Fitted {
@@ -809,6 +828,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: Some(1.1),
                 grazing_weight: Some(0.5),
+                dielectric_margin: None,
                 closer_margin: None,
             },
             PriorMean::FITTED,
@@ -825,6 +845,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             })
         );
@@ -838,6 +859,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             })
         );
@@ -859,6 +881,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             }
             .to_string(),
@@ -874,6 +897,7 @@ mod tests {
                 haze_margin: Some(1.0),
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             })
         );
@@ -887,6 +911,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: Some(1.0),
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             })
         );
@@ -896,6 +921,18 @@ mod tests {
         }
         assert_eq!("fitted:3+closer:2".parse::<PriorMean>(), Ok(closer));
         assert!("fitted+closer:0".parse::<PriorMean>().is_err());
+        let mut dielectric = "fitted:3".parse::<PriorMean>().unwrap();
+        if let PriorMean::Fitted {
+            dielectric_margin, ..
+        } = &mut dielectric
+        {
+            *dielectric_margin = Some(1.1);
+        }
+        assert_eq!(
+            "fitted:3+dielectric:1.1".parse::<PriorMean>(),
+            Ok(dielectric)
+        );
+        assert_eq!(dielectric.name(), "fitted:3+dielectric:1.1");
         assert!("fitted+rough:0".parse::<PriorMean>().is_err());
         assert!("fitted+haze+haze:2".parse::<PriorMean>().is_err());
         assert_eq!(PriorMean::Database.to_string(), "database");

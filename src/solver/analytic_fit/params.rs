@@ -50,6 +50,9 @@ pub(super) struct Shape {
     pub(super) haze: Option<Distribution>,
     /// An edge tint per channel (a conductor's exact Fresnel instead of Schlick's).
     pub(super) edge: bool,
+    /// A dielectric's exact Fresnel (η from F0, κ = 0) instead of Schlick's: no parameter of
+    /// its own. Ignored with an edge tint, which reaches the dielectric at its least.
+    pub(super) dielectric: bool,
     /// An Oren–Nayar diffuse of fitted slope instead of Lambert's.
     pub(super) rough_diffuse: bool,
     /// Only the diffuse varies (its albedo, and its slope where it is rough): every lobe
@@ -64,6 +67,7 @@ impl Shape {
             two_lobes: false,
             haze: None,
             edge: false,
+            dielectric: false,
             rough_diffuse: false,
             diffuse_only: false,
         }
@@ -126,6 +130,7 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
         two_lobes,
         haze,
         edge,
+        dielectric,
         rough_diffuse,
         ..
     } = shape;
@@ -152,12 +157,14 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
             share: logistic(theta[P_ONE]),
             alpha: alpha_of(theta[COAT_SHAPE]),
         }),
-        edge: edge.then(|| {
-            [0, 1, 2].map(|c| {
+        edge: if edge {
+            Some([0, 1, 2].map(|c| {
                 let least = least_edge_tint(logistic(theta[3 + c]));
                 least + (1.0 - least) * logistic(theta[EDGE + c])
-            })
-        }),
+            }))
+        } else {
+            dielectric.then(|| [0, 1, 2].map(|c| least_edge_tint(logistic(theta[3 + c]))))
+        },
     }
 }
 
@@ -241,6 +248,13 @@ mod tests {
             ),
             (
                 Shape {
+                    dielectric: true,
+                    ..one
+                },
+                (0..P_ONE).collect(),
+            ),
+            (
+                Shape {
                     haze: Some(Distribution::Ggx),
                     edge: true,
                     ..one
@@ -285,6 +299,15 @@ mod tests {
             assert_eq!(active[..n], expected[..], "{shape:?}");
         }
         assert!(SHAPE.iter().all(|&i| i < P_ONE) && (P_ONE..P_COAT).contains(&COAT_SHAPE));
+        // A dielectric's Fresnel is the edge tint at its least: κ = 0 at a plastic's F0.
+        let mut theta = [0.0; P];
+        theta[3..6].fill(logit(0.04));
+        let dielectric = Shape {
+            dielectric: true,
+            ..one
+        };
+        assert_eq!(model_of(&theta, dielectric).edge, Some([0.0; 3]));
+        assert_eq!(model_of(&theta, one).edge, None);
     }
 
     #[test]

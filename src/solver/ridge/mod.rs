@@ -1300,6 +1300,7 @@ mod tests {
                 haze_margin: None,
                 rough_margin: None,
                 grazing_weight: None,
+                dielectric_margin: None,
                 closer_margin: None,
             },
             ..MODEL

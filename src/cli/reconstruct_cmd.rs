@@ -116,7 +116,8 @@ pub struct ReconstructArgs {
     /// tell it from F0; not the default: physics says 1, Phong lobes say F0, and one light
     /// cannot tell which a painting means), and +closer:R (the fit also taken, whatever the
     /// evidence, where it explains the paint R times as closely as the database's mean
-    /// does). The default, fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+closer:3, is what
+    /// does). The default,
+    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+dielectric:1.1+closer:3, is what
     /// `burnish calibrate` and the bench chose.
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,

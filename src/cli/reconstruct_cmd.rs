@@ -118,7 +118,8 @@ pub struct ReconstructArgs {
     /// evidence, where it explains the paint R times as closely as the database's mean
     /// does). The default,
     /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+dielectric:1.1+closer:3, is what
-    /// `burnish calibrate` and the bench chose.
+    /// `burnish calibrate` and the bench chose (the dielectric's margin on hand-built
+    /// materials: the calibration's dielectrics all have Schlick's Fresnel).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]
     pub prior_mean: PriorMean,
     /// How samples falling in one bin combine.

@@ -88,7 +88,8 @@ pub struct FitOptions {
     pub rough_margin: Option<f64>,
     /// Where the paint cannot tell the lobe's specular weight from its F0, the weight this
     /// fit takes (its reflectance at normal incidence, their product, kept; see
-    /// [`with_the_grazing_weight`]); `None`: wherever the optimiser left it.
+    /// [`with_the_grazing_weight`]); `None`: wherever the optimiser left it. Only where the
+    /// paint's θ_d spread under 10° (one view): views that span θ_d show the split.
     pub grazing_weight: Option<f64>,
 }
 
@@ -347,7 +348,11 @@ pub fn fit_lambert_microfacet_bounded(
             best = exact;
         }
     }
-    let best = match options.grazing_weight {
+    // One view shows one θ_d (give or take a bin), where Schlick's rise is too faint to
+    // split s·F0, and the prior over the split decides. Views that span θ_d show the rise
+    // itself, and then the paint decides, whatever the tolerance would let the weight move.
+    let unseen_split = theta_d_spread(&observations) < EDGE_SEEN_SPREAD_DEG;
+    let best = match options.grazing_weight.filter(|_| unseen_split) {
         Some(weight) => with_the_grazing_weight(&observations, best, weight),
         None => best,
     };
@@ -1364,7 +1369,8 @@ mod tests {
 
     /// Paint at half-difference angles under 8° shows a lobe's s·F0 and not its Schlick rise:
     /// the fit takes the full weight there, F0 a real surface's, and keeps the weight the rise
-    /// shows once grazing θ_d are painted too.
+    /// shows once grazing θ_d are painted too (the paint then spans θ_d, and the weight is
+    /// the fit's own).
     #[test]
     fn a_weight_the_paint_cannot_see_is_taken_full_and_one_it_shows_is_kept() {
         use crate::materials::models::{Mixture, OrenNayar};

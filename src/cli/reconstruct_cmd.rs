@@ -113,11 +113,11 @@ pub struct ReconstructArgs {
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
     /// weight, its reflectance at grazing incidence, moved toward S where the paint cannot
-    /// tell it from F0; not the default: physics says 1, Phong lobes say F0, and one light
+    /// tell it from F0, as from one view: physics says 1, Phong lobes say F0, and one light
     /// cannot tell which a painting means), and +closer:R (the fit also taken, whatever the
     /// evidence, where it explains the paint R times as closely as the database's mean
     /// does). The default,
-    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+dielectric:1.1+closer:3, is what
+    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+grazing:0.98+dielectric:1.1+closer:3, is what
     /// `burnish calibrate` and the bench chose (the dielectric's margin on hand-built
     /// materials: the calibration's dielectrics all have Schlick's Fresnel).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]

@@ -334,7 +334,8 @@ fn a_reconstruction_from_a_render_scores_close_to_the_truth() {
     let rel = ours["relative_rmse"].as_f64().unwrap();
     let guess_rel = guess["relative_rmse"].as_f64().unwrap();
     println!("reconstruction {ours}\ngrey guess {guess}");
-    const MEASURED: f64 = 0.0228;
+    // 0.0228 before the reference took one view's unseen specular weight toward 1.
+    const MEASURED: f64 = 0.0136;
     assert!(
         (0.8 * MEASURED..=1.15 * MEASURED).contains(&rel),
         "relative RMSE {rel}, measured {MEASURED} when written"

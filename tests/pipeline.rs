@@ -178,7 +178,11 @@ fn one_view_is_within_the_stated_error_and_three_views_beat_one() {
 /// reference's edge tint) is told by the height of its peak against its shoulders, which an
 /// HDR view holds and a clipped 8-bit view does not, so HDR paint of a metal can be exact
 /// where one 8-bit view stays where Schlick's reference leaves it. The edge tint must not
-/// make 8-bit paint worse than Schlick's reference does.
+/// make 8-bit paint worse than Schlick's reference does. Likewise the prior over a lobe's
+/// unseen specular weight (`+grazing:0.98`) is not what the paint tells: it moves the weight
+/// only as far as the fit's residual stays flat, which HDR paint allows further than 8-bit
+/// rounding does, so each material's 8-bit view is held to the worse of what HDR paint tells
+/// with and without it.
 #[test]
 fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     // What 8-bit paint may cost where HDR paint is exact, as a ratio cannot say: from one
@@ -192,8 +196,13 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     if let PriorMean::Fitted { edge_margin, .. } = &mut schlick {
         *edge_margin = None;
     }
+    let mut unsplit = PriorMean::FITTED;
+    if let PriorMean::Fitted { grazing_weight, .. } = &mut unsplit {
+        *grazing_weight = None;
+    }
     let (mut hdr, mut ldr, mut hdr_schlick, mut ldr_schlick) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut hdr_unsplit = Vec::new();
     for i in 0..MATERIALS {
         let truth = tabulate(&*material(HELD_OUT_SEED, i).brdf);
         let score = |extension, mean| {
@@ -206,13 +215,15 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
         ldr.push(score("png", PriorMean::FITTED));
         hdr_schlick.push(score("exr", schlick));
         ldr_schlick.push(score("png", schlick));
+        hdr_unsplit.push(score("exr", unsplit));
         println!(
-            "{:<60} relative RMSE HDR {:.4} 8-bit {:.4} (Schlick's {:.4} {:.4}), log RMSE {:.4} {:.4} ({:.4} {:.4})",
+            "{:<60} relative RMSE HDR {:.4} 8-bit {:.4} (Schlick's {:.4} {:.4}, HDR without the grazing weight {:.4}), log RMSE {:.4} {:.4} ({:.4} {:.4})",
             material(HELD_OUT_SEED, i).label,
             hdr[i].relative_rmse,
             ldr[i].relative_rmse,
             hdr_schlick[i].relative_rmse,
             ldr_schlick[i].relative_rmse,
+            hdr_unsplit[i].relative_rmse,
             hdr[i].log_rmse,
             ldr[i].log_rmse,
             hdr_schlick[i].log_rmse,
@@ -227,7 +238,9 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     // closely as the database's mean is taken (`+closer:3`), the plastic and the Lambert
     // surface are exact from HDR paint (0.112 and 0.084 before) and 0.008 and 0.0002 from
     // 8-bit: the median over what HDR paint tells under Schlick's Fresnel is 0.113, 8-bit's
-    // 0.118 (HDR with the edge tint: 0.082, chrome's exact peak now at the median).
+    // 0.118 (HDR with the edge tint: 0.082, chrome's exact peak now at the median). With the
+    // grazing weight for one view the clear coat comes to 0.244 from HDR paint and 0.336 from
+    // 8-bit paint (0.745 and 0.894 without it).
     let hdr_told: Vec<_> = (0..MATERIALS)
         .map(|i| {
             if hdr[i].relative_rmse >= hdr_schlick[i].relative_rmse {
@@ -245,8 +258,14 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     );
     for i in 0..MATERIALS {
         let label = material(HELD_OUT_SEED, i).label;
-        let hdr_relative = hdr[i].relative_rmse.max(hdr_schlick[i].relative_rmse);
-        let hdr_log = hdr[i].log_rmse.max(hdr_schlick[i].log_rmse);
+        let hdr_relative = hdr[i]
+            .relative_rmse
+            .max(hdr_schlick[i].relative_rmse)
+            .max(hdr_unsplit[i].relative_rmse);
+        let hdr_log = hdr[i]
+            .log_rmse
+            .max(hdr_schlick[i].log_rmse)
+            .max(hdr_unsplit[i].log_rmse);
         assert!(
             ldr[i].relative_rmse <= 1.25 * hdr_relative + QUANTISATION_RELATIVE,
             "{label}: 8-bit relative RMSE {:.4} against HDR {hdr_relative:.4}",

@@ -166,6 +166,9 @@ pub fn fit_lambert_microfacet_bounded(
             iterations: 0,
         };
     }
+    // Views at θ_d far apart show the Fresnel's own curve and the split of s·F0; one view
+    // shows one θ_d, give or take a bin. Several stages below ask which.
+    let views_span_theta_d = theta_d_spread(&observations) >= EDGE_SEEN_SPREAD_DEG;
     let rms = |cost: f64| rms_log(&observations, cost);
     let score = |fit: &ShapeFit| Score {
         rms_log: rms(fit.cost),
@@ -314,7 +317,7 @@ pub fn fit_lambert_microfacet_bounded(
         // Views at θ_d far apart show the Fresnel's own curve, which the tint then follows
         // wherever it fits better; one view shows one θ_d (give or take a bin), where the tint
         // and F0 trade freely, so there it must earn its place by the margin.
-        let margin = if theta_d_spread(&observations) >= EDGE_SEEN_SPREAD_DEG {
+        let margin = if views_span_theta_d {
             margin.min(EDGE_MARGIN_SEEN)
         } else {
             margin
@@ -327,7 +330,7 @@ pub fn fit_lambert_microfacet_bounded(
         !best.shape.edge
             && !best.shape.two_lobes
             && !conductor_like(&best.model())
-            && theta_d_spread(&observations) >= EDGE_SEEN_SPREAD_DEG
+            && views_span_theta_d
     }) {
         // Schlick's curve approximates a dielectric's Fresnel and falls short of it between
         // θ_d 50° and 80° (by a quarter at 60° for η 1.5): where views show that range, a
@@ -351,8 +354,7 @@ pub fn fit_lambert_microfacet_bounded(
     // One view shows one θ_d (give or take a bin), where Schlick's rise is too faint to
     // split s·F0, and the prior over the split decides. Views that span θ_d show the rise
     // itself, and then the paint decides, whatever the tolerance would let the weight move.
-    let unseen_split = theta_d_spread(&observations) < EDGE_SEEN_SPREAD_DEG;
-    let best = match options.grazing_weight.filter(|_| unseen_split) {
+    let best = match options.grazing_weight.filter(|_| !views_span_theta_d) {
         Some(weight) => with_the_grazing_weight(&observations, best, weight),
         None => best,
     };

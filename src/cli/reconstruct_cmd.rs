@@ -112,8 +112,8 @@ pub struct ReconstructArgs {
     /// θ_d over 10°, kept where it fits better by the factor R), and
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
-    /// weight, its reflectance at grazing incidence, moved toward S where the paint cannot
-    /// tell it from F0, as from one view: physics says 1, Phong lobes say F0, and one light
+    /// weight, its reflectance at grazing incidence, raised toward S where the paint cannot
+    /// tell it from F0, as from one view, by no more than the paint could show: physics says 1, Phong lobes say F0, and one light
     /// cannot tell which a painting means), and +closer:R (the fit also taken, whatever the
     /// evidence, where it explains the paint R times as closely as the database's mean
     /// does). The default,

@@ -194,7 +194,7 @@ impl BenchReport {
                 d.components,
                 d.p50_ms,
                 d.p95_ms,
-                yes(d.p50_ms <= 1.0)
+                yes(d.p95_ms <= 1.0)
             );
         }
         if let Some(p) = self.paper_k() {

@@ -421,7 +421,7 @@ const GRAZING_RMS_RELATIVE: f64 = 1e-6;
 /// full brightness) and at most [`GRAZING_HIDDEN_SHARE`] of the fit's RMS log residual, the
 /// paint's scatter about the fit. The residual's own test is blind to such a change where
 /// that scatter is 8-bit rounding: it grows by 2e-5 of itself there, by chance, for a change
-/// of 2e-4 (a Lambert + GGX plastic's 8-bit view kept s 0.49 where its HDR view took 0.98).
+/// of 2e-4 (a Lambert + GGX plastic's 8-bit view kept s 0.49 where its HDR view took 0.97).
 const GRAZING_HIDDEN_CHANGE: f64 = 1e-3;
 
 /// The share of the fit's RMS log residual that bounds [`GRAZING_HIDDEN_CHANGE`]. Where the

@@ -104,7 +104,10 @@ pub struct ReconstructArgs {
     /// fits better by the factor R; not the default: on the calibration's single-lobe
     /// materials it fitted a coat that extrapolated worse), +edge or +edge:R (a metal's
     /// exact Fresnel with an edge tint per channel instead of Schlick's, tried where the fit
-    /// has no more diffuse than specular, kept where it fits better by the factor R), and
+    /// has no more diffuse than specular, kept where it fits better by the factor R, or from
+    /// one view, which cannot show the tint, where it fits better at all with the tint held
+    /// near the conductor closest to the Schlick fit as far as the paint's scatter hides
+    /// it), and
     /// +haze or +haze:R (a metal's lobe split into a sharp peak and a broad glow of one
     /// Fresnel, tried where the fit has almost no diffuse, kept where it fits better by the
     /// factor R), +dielectric or +dielectric:R (a dielectric's exact Fresnel instead of

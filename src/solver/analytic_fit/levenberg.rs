@@ -36,12 +36,43 @@ pub(super) fn fit_shape(
     shape: Shape,
     options: &FitOptions,
 ) -> ShapeFit {
+    fit_shape_with_prior(observations, starts, shape, options, None)
+}
+
+/// A Gaussian prior over three consecutive parameters (a channel each): ½·weight·Σ(θᵢ − μᵢ)²
+/// added to the cost the optimiser lowers. `weight` is the paint's variance over the prior's,
+/// both in the units of the cost's residuals, so the prior decides only what the paint's
+/// scatter hides.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct ParameterPrior {
+    pub(super) first: usize,
+    pub(super) mean: [f64; 3],
+    pub(super) weight: f64,
+}
+
+impl ParameterPrior {
+    fn penalty(&self, theta: &Params) -> f64 {
+        let squares = (0..3).map(|c| (theta[self.first + c] - self.mean[c]).powi(2));
+        0.5 * self.weight * squares.sum::<f64>()
+    }
+}
+
+/// [`fit_shape`] with a prior over some parameters. The fit's cost is the paint's alone.
+pub(super) fn fit_shape_with_prior(
+    observations: &[Observation],
+    starts: &[Params],
+    shape: Shape,
+    options: &FitOptions,
+    prior: Option<ParameterPrior>,
+) -> ShapeFit {
+    let levenberg_marquardt = |theta: Params, max_iterations: usize| {
+        levenberg_marquardt_with_prior(observations, theta, shape, max_iterations, prior)
+    };
     let mut iterations = 0;
     let mut scouted: Vec<(Params, f64)> = starts
         .iter()
         .map(|start| {
-            let (theta, cost, it) =
-                levenberg_marquardt(observations, *start, shape, options.scout_iterations);
+            let (theta, cost, it) = levenberg_marquardt(*start, options.scout_iterations);
             iterations += it;
             (theta, cost)
         })
@@ -49,16 +80,19 @@ pub(super) fn fit_shape(
     scouted.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (mut best, mut best_cost) = (scouted[0].0, scouted[0].1);
     for &(theta, _) in scouted.iter().take(options.finalists.max(1)) {
-        let (theta, cost, it) =
-            levenberg_marquardt(observations, theta, shape, options.max_iterations);
+        let (theta, cost, it) = levenberg_marquardt(theta, options.max_iterations);
         iterations += it;
         if cost < best_cost {
             (best, best_cost) = (theta, cost);
         }
     }
+    let paint_cost = match prior {
+        Some(prior) => best_cost - prior.penalty(&best),
+        None => best_cost,
+    };
     ShapeFit {
         theta: best,
-        cost: best_cost,
+        cost: paint_cost,
         iterations,
         shape,
     }
@@ -252,15 +286,43 @@ pub(super) fn damped_step(
     step.iter().all(|v| v.is_finite()).then_some(step)
 }
 
-/// Runs at most `max_iterations` LM iterations from `theta`; returns the parameters, their
-/// cost and the iterations run.
-pub(super) fn levenberg_marquardt(
+/// [`levenberg_marquardt_with_prior`] without a prior.
+#[cfg(test)]
+fn levenberg_marquardt(
+    observations: &[Observation],
+    theta: Params,
+    shape: Shape,
+    max_iterations: usize,
+) -> (Params, f64, usize) {
+    levenberg_marquardt_with_prior(observations, theta, shape, max_iterations, None)
+}
+
+/// Runs at most `max_iterations` LM iterations from `theta`, lowering the paint's cost plus
+/// `prior`'s penalty; returns the parameters, that cost and the iterations run.
+fn levenberg_marquardt_with_prior(
     observations: &[Observation],
     mut theta: Params,
     shape: Shape,
     max_iterations: usize,
+    prior: Option<ParameterPrior>,
 ) -> (Params, f64, usize) {
     let (active, n) = shape.active();
+    let cost = |observations: &[Observation], theta: &Params, shape: Shape| {
+        cost(observations, theta, shape) + prior.map_or(0.0, |p| p.penalty(theta))
+    };
+    let normal_equations = |observations: &[Observation], theta: &Params, shape: Shape| {
+        let (mut jtj, mut jtr, cost) = normal_equations(observations, theta, shape);
+        let Some(prior) = prior else {
+            return (jtj, jtr, cost);
+        };
+        for (j, &i) in active[..n].iter().enumerate() {
+            if (prior.first..prior.first + 3).contains(&i) {
+                jtj[j * P + j] += prior.weight;
+                jtr[j] += prior.weight * (theta[i] - prior.mean[i - prior.first]);
+            }
+        }
+        (jtj, jtr, cost + prior.penalty(theta))
+    };
     let mut lambda = 1e-3;
     let (mut jtj, mut jtr, mut current) = normal_equations(observations, &theta, shape);
     let mut iterations = 0;
@@ -404,6 +466,50 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// A prior holds the parameters it covers where it outweighs the paint and leaves the fit
+    /// as it was where it weighs nothing; the cost a fit reports is the paint's alone.
+    #[test]
+    fn a_parameter_prior_decides_only_what_it_outweighs() {
+        use super::super::params::EDGE;
+        let metal = LambertMicrofacet {
+            albedo: [0.01; 3],
+            f0: [0.9, 0.6, 0.3],
+            specular: 1.0,
+            edge: Some([0.5, 0.6, 0.7]),
+            ..PLASTIC
+        };
+        let shape = Shape {
+            edge: true,
+            ..Shape::one_lobe(Distribution::Ggx)
+        };
+        let observations = observations_of(&metal, EXACT);
+        let start = params_of(&metal);
+        let options = FitOptions::default();
+        let free = fit_shape(&observations, &[start], shape, &options);
+        let mean = [0.0, 1.0, -1.0];
+        let held = |weight: f64| {
+            let prior = ParameterPrior {
+                first: EDGE,
+                mean,
+                weight,
+            };
+            fit_shape_with_prior(&observations, &[start], shape, &options, Some(prior))
+        };
+        let none = held(0.0);
+        assert_eq!((none.theta, none.cost), (free.theta, free.cost));
+        let strong = held(1e9);
+        for c in 0..3 {
+            assert!(
+                (strong.theta[EDGE + c] - mean[c]).abs() < 1e-4,
+                "{:?}",
+                strong.theta
+            );
+        }
+        assert!(strong.cost > free.cost);
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+        assert!(same(strong.cost, cost(&observations, &strong.theta, shape)));
     }
 
     /// The residuals written out from the model's own `eval`.

@@ -234,14 +234,17 @@ fn eight_bit_paint_is_nearly_as_good_as_hdr() {
     // 0.894 8-bit: its highlight is clipped and the fit sees only its shoulders). Before
     // clipped bins were taken at the reference where it already meets them, chrome came out
     // at 0.95 from 8-bit paint against 0.065. With the edge tint, chrome's HDR view is 0.0028
-    // and its 8-bit view stays at 0.066. Since a fit that explains the paint three times as
-    // closely as the database's mean is taken (`+closer:3`), the plastic and the Lambert
-    // surface are exact from HDR paint (0.112 and 0.084 before) and 0.008 and 0.0002 from
-    // 8-bit: the median over what HDR paint tells under Schlick's Fresnel is 0.113, 8-bit's
-    // 0.118 (HDR with the edge tint: 0.082, chrome's exact peak now at the median). With the
-    // grazing weight for one view the clear coat comes to 0.244 from HDR paint and 0.336 from
-    // 8-bit paint (0.745 and 0.894 without it); since the weight also moves as far as no bin
-    // changes by a thousandth, 0.296 from 8-bit paint.
+    // and its 8-bit view stays at 0.066 (0.063 since a prior decides one view's tint where
+    // rounding hides it: its clipped peak, not its Fresnel, owns the rest); the principled
+    // material's lobe, no brighter head-on than a dielectric, keeps Schlick's (with the prior:
+    // 0.178 from HDR and 8-bit paint, against 0.162). Since a fit that explains the paint three
+    // times as closely as the database's mean is taken (`+closer:3`), the plastic and the
+    // Lambert surface are exact from HDR paint (0.112 and 0.084 before) and 0.008 and 0.0002
+    // from 8-bit: the median over what HDR paint tells under Schlick's Fresnel is 0.113,
+    // 8-bit's 0.118 (HDR with the edge tint: 0.082, chrome's exact peak now at the median).
+    // With the grazing weight for one view the clear coat comes to 0.244 from HDR paint and
+    // 0.336 from 8-bit paint (0.745 and 0.894 without it); since the weight also moves as far
+    // as no bin changes by a thousandth, 0.296 from 8-bit paint.
     let hdr_told: Vec<_> = (0..MATERIALS)
         .map(|i| {
             if hdr[i].relative_rmse >= hdr_schlick[i].relative_rmse {

@@ -324,9 +324,11 @@ pub fn fit_lambert_microfacet_bounded(
         };
         if score(&tinted).beats(score(&best), margin) {
             best = tinted;
-        } else if !views_span_theta_d {
+        } else if !views_span_theta_d && brighter_than_a_dielectric(&best.model()) {
             // Where one view leaves the tint unseen, a prior decides it: a metal's Fresnel is
             // a conductor's, and the conductor closest to the Schlick fit is where it starts.
+            // A lobe no brighter head-on than a dielectric may be one (a principled
+            // material's specular over a black base), whose curve no conductor's is.
             // HDR paint of a metal shows its tint by the margin; 8-bit rounding hides it,
             // and a Schlick lobe then carries the wrong curve to grazing angles (a metal's
             // 8-bit view 0.053 where HDR gave 0.000). Unweighted, the tint follows rounding.
@@ -572,6 +574,19 @@ const EDGE_SEEN_SPREAD_DEG: f64 = 10.0;
 /// The edge stage's margin where the paint spans [`EDGE_SEEN_SPREAD_DEG`]: a tint that fits
 /// better at all is kept.
 const EDGE_MARGIN_SEEN: f64 = 1.0;
+
+/// The most a dielectric reflects at normal incidence: diamond's (η 2.42). A lobe that
+/// reflects more in some channel is a metal's.
+const DIELECTRIC_F0_MAX: f64 = 0.17;
+
+/// Whether a fit's lobe reflects more at normal incidence (s·F0) in some channel than any
+/// dielectric does ([`DIELECTRIC_F0_MAX`]).
+fn brighter_than_a_dielectric(model: &LambertMicrofacet) -> bool {
+    model
+        .f0
+        .iter()
+        .any(|&f0| model.specular * f0 > DIELECTRIC_F0_MAX)
+}
 
 /// The width (one standard deviation, in the logit of the tint's place in its range) of the
 /// prior over a metal's edge tint where one view leaves it unseen, around the conductor
@@ -1580,7 +1595,8 @@ mod tests {
     /// truth's: at θ_d = 75° the fit is 1.3% below a conductor metal (tint 0.97, 0.94, 0.96
     /// against 0.97, 0.95, 0.96) where a Schlick fit is 17% below it. A Schlick metal (a
     /// principled material's) pays for it with a conductor's curve: 1.6% below, where a
-    /// Schlick fit is exact.
+    /// Schlick fit is exact. (A lobe no brighter head-on than a dielectric is left to Schlick's:
+    /// tests/pipeline.rs holds a principled material's to it.)
     #[test]
     fn one_eight_bit_view_of_a_metal_takes_a_conductors_fresnel() {
         use crate::scene::{srgb_decode, srgb_encode};

@@ -105,7 +105,7 @@ pub struct ReconstructArgs {
     /// materials it fitted a coat that extrapolated worse), +edge or +edge:R (a metal's
     /// exact Fresnel with an edge tint per channel instead of Schlick's, tried where the fit
     /// has no more diffuse than specular, kept where it fits better by the factor R, or from
-    /// one view, which cannot show the tint, where it fits better at all with the tint held
+    /// one 8-bit view, which hides the tint, where it fits better at all with the tint held
     /// near the conductor closest to the Schlick fit as far as the paint's scatter hides
     /// it), and
     /// +haze or +haze:R (a metal's lobe split into a sharp peak and a broad glow of one

@@ -324,14 +324,20 @@ pub fn fit_lambert_microfacet_bounded(
         };
         if score(&tinted).beats(score(&best), margin) {
             best = tinted;
-        } else if !views_span_theta_d && brighter_than_a_dielectric(&best.model()) {
-            // Where one view leaves the tint unseen, a prior decides it: a metal's Fresnel is
-            // a conductor's, and the conductor closest to the Schlick fit is where it starts.
-            // A lobe no brighter head-on than a dielectric may be one (a principled
-            // material's specular over a black base), whose curve no conductor's is.
-            // HDR paint of a metal shows its tint by the margin; 8-bit rounding hides it,
-            // and a Schlick lobe then carries the wrong curve to grazing angles (a metal's
-            // 8-bit view 0.053 where HDR gave 0.000). Unweighted, the tint follows rounding.
+        } else if !views_span_theta_d
+            && observations.iter().any(|o| o.bounds != EXACT)
+            && brighter_than_a_dielectric(&best.model())
+        {
+            // HDR paint of a metal shows its tint by the margin; 8-bit paint (clipped or black
+            // somewhere, so some of its bins are bounds) hides it, and a Schlick lobe then
+            // carries the wrong curve to grazing angles (a metal's 8-bit view 0.053 where HDR
+            // gave 0.000). There a prior decides what the paint leaves unseen: a metal's
+            // Fresnel is a conductor's, and the conductor closest to the Schlick fit is where
+            // it starts. Unweighted, the tint follows the rounding. HDR paint keeps the
+            // margin's answer: there the prior only traded a Schlick lobe's curve for a
+            // conductor's (a principled metal 0.007 → 0.012). A lobe no brighter head-on
+            // than a dielectric (a principled material's specular over a black base) is no
+            // metal's.
             let prior = ParameterPrior {
                 first: EDGE,
                 mean: [0, 1, 2].map(|c| starts[1][EDGE + c]),
@@ -1545,23 +1551,28 @@ mod tests {
     }
 
     /// Each pixel's ρ as its image shows it (radiance `shown` from ρ·cos θ_l, divided back),
-    /// averaged into its bin.
+    /// averaged into its bin; a channel with a pixel clipped (`shown` says so) is a lower
+    /// bound.
     fn binned(
         pixels: &[(PairIndex, DVec3, DVec3)],
         rho: impl Fn(DVec3, DVec3) -> [f64; 3],
-        shown: impl Fn(f64) -> f64,
+        shown: impl Fn(f64) -> (f64, bool),
     ) -> Vec<(PairIndex, [f64; 3], Bounds)> {
-        let mut sums = std::collections::BTreeMap::<PairIndex, ([f64; 3], f64)>::new();
+        let mut sums = std::collections::BTreeMap::<PairIndex, ([f64; 3], f64, Bounds)>::new();
         for &(pair, l, v) in pixels {
-            let sum = sums.entry(pair).or_default();
+            let sum = sums.entry(pair).or_insert(([0.0; 3], 0.0, EXACT));
             let rho = rho(l, v);
             for ch in 0..3 {
-                sum.0[ch] += shown(rho[ch] * l.z) / l.z;
+                let (radiance, clipped) = shown(rho[ch] * l.z);
+                sum.0[ch] += radiance / l.z;
+                if clipped {
+                    sum.2[ch] = Bound::AtLeast;
+                }
             }
             sum.1 += 1.0;
         }
         sums.into_iter()
-            .map(|(pair, (rho, n))| (pair, rho.map(|r| r / n), EXACT))
+            .map(|(pair, (rho, n, bounds))| (pair, rho.map(|r| r / n), bounds))
             .collect()
     }
 
@@ -1580,9 +1591,9 @@ mod tests {
         let step = brightest / 255.0;
         let shown = |radiance: f64| {
             if eight_bit {
-                (radiance / step).round() * step
+                ((radiance / step).round() * step, false)
             } else {
-                radiance
+                (radiance, false)
             }
         };
         binned(&pixels, |l, v| brdf.eval(l, v), shown)
@@ -1591,12 +1602,13 @@ mod tests {
     /// One 8-bit view of a metal hides the conductor's curve an HDR view shows by the margin,
     /// and a Schlick lobe then carries the wrong rise to grazing angles. Painted as `burnish
     /// render` paints a table (each pixel the ρ of its bins' centres, π·ρ·cos θ_l stored as
-    /// 8-bit sRGB), the prior over the tint gives the view a conductor's Fresnel near the
-    /// truth's: at θ_d = 75° the fit is 1.3% below a conductor metal (tint 0.97, 0.94, 0.96
-    /// against 0.97, 0.95, 0.96) where a Schlick fit is 17% below it. A Schlick metal (a
-    /// principled material's) pays for it with a conductor's curve: 1.6% below, where a
-    /// Schlick fit is exact. (A lobe no brighter head-on than a dielectric is left to Schlick's:
-    /// tests/pipeline.rs holds a principled material's to it.)
+    /// 8-bit sRGB, a bin with a clipped pixel a lower bound), the prior over the tint gives
+    /// the view a conductor's Fresnel near the truth's: at θ_d = 75° the fit is 2.5% below a
+    /// conductor metal (tint 0.97, 0.94, 0.95 against 0.97, 0.95, 0.96) where a Schlick fit
+    /// is 18% below it. A Schlick metal (a principled material's) pays for it with a
+    /// conductor's curve: 9.5% below, where a Schlick fit is within 1%. (A lobe no brighter
+    /// head-on than a dielectric is left to Schlick's: tests/pipeline.rs holds a principled
+    /// material's to it.)
     #[test]
     fn one_eight_bit_view_of_a_metal_takes_a_conductors_fresnel() {
         use crate::scene::{srgb_decode, srgb_encode};
@@ -1608,7 +1620,7 @@ mod tests {
             edge_margin: None,
             ..options
         };
-        let metal = |fresnel: Fresnel| Microfacet::isotropic(Distribution::Ggx, 0.45, fresnel);
+        let metal = |fresnel: Fresnel| Microfacet::isotropic(Distribution::Ggx, 0.3, fresnel);
         let conductor = {
             let channels = [(0.47, 0.97), (0.49, 0.95), (0.52, 0.96)]
                 .map(|(f0, tint)| conductor_from_edge_tint(f0, tint));
@@ -1627,7 +1639,7 @@ mod tests {
             };
             let eight_bit = |radiance: f64| {
                 let code = (srgb_encode((PI * radiance) as f32) * 255.0).round();
-                f64::from(srgb_decode(code / 255.0)) / PI
+                (f64::from(srgb_decode(code / 255.0)) / PI, code >= 255.0)
             };
             binned(&sphere_pixels(45.0), at_centres, eight_bit)
         };
@@ -1648,7 +1660,7 @@ mod tests {
         let schlick_fit = fit_lambert_microfacet_bounded(&bins, &schlick_only).model;
         assert!(off(&schlick_fit, &conductor) < -0.1, "{schlick_fit:?}");
         let fit = fit_lambert_microfacet_bounded(&painted(&schlick), &options).model;
-        assert!(off(&fit, &schlick).abs() < 0.03, "{fit:?}");
+        assert!(off(&fit, &schlick).abs() < 0.12, "{fit:?}");
     }
 
     /// Paint at half-difference angles under 8° shows a lobe's s·F0 and not its Schlick rise:
@@ -2556,30 +2568,15 @@ mod tests {
                 edge_start(&with_specular_in_f0(&schlick.theta), schlick.shape),
             ];
             let tinted = fit_shape(&observations, &tint_starts, shape, &options);
-            // One view (the only case here the margin refuses) also fits the tint under its
-            // prior.
-            let guessed = (!keeps_tint).then(|| {
-                let prior = ParameterPrior {
-                    first: EDGE,
-                    mean: [0, 1, 2].map(|c| tint_starts[1][EDGE + c]),
-                    weight: (rms_log(&observations, schlick.cost) / EDGE_PRIOR_SPREAD).powi(2),
-                };
-                fit_shape_with_prior(&observations, &tint_starts, shape, &options, Some(prior))
-            });
-            let (more_starts, more_iterations) =
-                guessed.as_ref().map_or((0, 0), |g| (2, g.iterations));
+            // Exact paint (no bin a bound) never fits the tint under its prior.
             assert_eq!(
                 (fit.starts, fit.iterations),
-                (
-                    starts.len() + 2 + more_starts,
-                    schlick.iterations + tinted.iterations + more_iterations
-                )
+                (starts.len() + 2, schlick.iterations + tinted.iterations)
             );
             if keeps_tint {
                 assert_eq!(fit.model, tinted.model());
             } else {
-                // Better, but not by the margin a single θ_d asks; under the prior the tint
-                // follows the bulk of the bins a little better and the bright ones worse.
+                // Better, but not by the margin a single θ_d asks.
                 assert!(
                     tinted.cost < schlick.cost,
                     "{} {}",

@@ -87,6 +87,11 @@ pub enum Distribution {
     Ggx,
     /// Beckmann: Gaussian slopes, shorter tails.
     Beckmann,
+    /// Beckmann's slopes (Blinn–Phong's for the exponent 2/α² − 2) under Ashikhmin and
+    /// Shirley's normalisation (2000), D/(4 (v·h) max(cos θ_l, cos θ_v)), in place of Smith's
+    /// G₂/(4 cos θ_l cos θ_v): a lobe whose rise toward grazing is far gentler, as Phong-like
+    /// lobes' are (Ashikhmin–Shirley's, Blinn–Phong's, Ward's).
+    AshikhminShirley,
 }
 
 impl Distribution {
@@ -102,7 +107,7 @@ impl Distribution {
                 let t = sx * sx + sy * sy + hz * hz;
                 1.0 / (PI * ax * ay * t * t)
             }
-            Distribution::Beckmann => {
+            Distribution::Beckmann | Distribution::AshikhminShirley => {
                 let hz2 = hz * hz;
                 let e = (-(sx * sx + sy * sy) / hz2).exp();
                 if e == 0.0 {
@@ -129,6 +134,8 @@ impl Distribution {
         }
         let z = wz.max(MIN_COS);
         match self {
+            // Its normalisation stands in for masking and shadowing.
+            Distribution::AshikhminShirley => 0.0,
             Distribution::Ggx => 0.5 * ((1.0 + s2 / (z * z)).sqrt() - 1.0),
             Distribution::Beckmann => {
                 // Walter et al. 2007's rational fit of the erf form.
@@ -195,6 +202,11 @@ fn microfacet_dg_turned(
     let d = distribution.d(hx, hy, h.z, ax, ay);
     if d == 0.0 {
         return 0.0;
+    }
+    if distribution == Distribution::AshikhminShirley {
+        // Both cosines, summed, so that swapping l and v gives the same bits.
+        let cos_d = (0.5 * (l.dot(h) + v.dot(h))).max(MIN_COS);
+        return d / (4.0 * cos_d * l.z.max(v.z).max(MIN_COS));
     }
     let (lx, ly) = rotated_xy(l, sc);
     let (vx, vy) = rotated_xy(v, sc);
@@ -674,6 +686,7 @@ pub(crate) mod tests {
             }),
             Box::new(aniso(Distribution::Ggx)),
             Box::new(aniso(Distribution::Beckmann)),
+            Box::new(aniso(Distribution::AshikhminShirley)),
             Box::new(Microfacet::isotropic(
                 Distribution::Ggx,
                 0.02,
@@ -741,7 +754,7 @@ pub(crate) mod tests {
         assert_eq!(
             flags,
             [
-                true, true, false, false, true, false, false, true, true, false, true, true
+                true, true, false, false, false, true, false, false, true, true, false, true, true
             ]
         );
         for (i, b) in examples().iter().enumerate() {
@@ -838,6 +851,52 @@ pub(crate) mod tests {
             let want = d * f * g / (4.0 * l.z * v.z);
             assert!((got[c] - want).abs() < 1e-12 * want, "{got:?} vs {want}");
         }
+    }
+
+    /// Ashikhmin and Shirley's normalisation keeps Beckmann's slopes: head-on, where Smith's
+    /// G₂ is 1, the two lobes agree; elsewhere the lobe is D/(4 (v·h) max(cos θ_l, cos θ_v)),
+    /// and toward grazing it rises far less than the microfacet lobe.
+    #[test]
+    fn ashikhmin_shirleys_normalisation_keeps_beckmanns_slopes() {
+        let alpha = 0.3;
+        let f0 = [0.04, 0.5, 0.9];
+        let lobe =
+            |distribution| Microfacet::isotropic(distribution, alpha, Fresnel::Schlick { f0 });
+        let (phong, beckmann) = (
+            lobe(Distribution::AshikhminShirley),
+            lobe(Distribution::Beckmann),
+        );
+        let (got, want) = (
+            phong.eval(DVec3::Z, DVec3::Z),
+            beckmann.eval(DVec3::Z, DVec3::Z),
+        );
+        for c in 0..3 {
+            assert!(
+                (got[c] - want[c]).abs() < 1e-12 * want[c],
+                "{got:?} vs {want:?}"
+            );
+        }
+        let at = |tl: f64, tv: f64| {
+            let l = DVec3::new(tl.sin(), 0.0, tl.cos());
+            let v = DVec3::new(-tv.sin(), 0.0, tv.cos());
+            (l, v)
+        };
+        let (l, v) = at(0.5, 1.1);
+        let h = (l + v).normalize();
+        let a2 = alpha * alpha;
+        let d = (-(1.0 - h.z * h.z) / (h.z * h.z * a2)).exp() / (PI * a2 * h.z.powi(4));
+        let got = phong.eval(l, v);
+        for c in 0..3 {
+            let f = f0[c] + (1.0 - f0[c]) * (1.0 - l.dot(h)).powi(5);
+            let want = d * f / (4.0 * l.dot(h) * l.z.max(v.z));
+            assert!((got[c] - want).abs() < 1e-12 * want, "{got:?} vs {want}");
+        }
+        // Light at grazing (θ_l 80°), view head-on: the microfacet lobe's 1/(cos θ_l cos θ_v)
+        // outgrows Ashikhmin–Shirley's 1/((v·h) cos θ_v) by far, its G₂ notwithstanding (at
+        // a mirror pair, where v·h is the larger cosine, the two differ by G₂ alone).
+        let (l, v) = at(1.4, 0.0);
+        assert!(beckmann.eval(l, v)[0] > 2.0 * phong.eval(l, v)[0]);
+        assert_eq!(phong.eval(l, v), phong.eval(v, l));
     }
 
     #[test]

@@ -411,6 +411,13 @@ mod tests {
                 },
             ),
             (
+                shape(Distribution::AshikhminShirley),
+                LambertMicrofacet {
+                    distribution: Distribution::AshikhminShirley,
+                    ..PLASTIC
+                },
+            ),
+            (
                 Shape {
                     two_lobes: true,
                     ..shape(Distribution::Ggx)

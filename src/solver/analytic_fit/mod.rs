@@ -1,5 +1,6 @@
 //! The analytic baseline: Lambert plus an anisotropic microfacet lobe (GGX, and where asked
-//! Beckmann beside it, and where asked an Oren–Nayar diffuse instead of Lambert's) fitted by
+//! Beckmann beside it or, from views that span θ_d, Ashikhmin and Shirley's normalisation, and
+//! where asked an Oren–Nayar diffuse instead of Lambert's) fitted by
 //! Levenberg–Marquardt to the same binned samples the sparse solver sees, as tools like
 //! BRDFLab fit analytic models.
 //!

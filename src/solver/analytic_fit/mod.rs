@@ -488,10 +488,12 @@ const GRAZING_HIDDEN_CHANGE: f64 = 1e-3;
 /// changes than a thousandth; a tenth, so that the bound stays well inside the scatter.
 const GRAZING_HIDDEN_SHARE: f64 = 0.1;
 
-/// The least F0 [`with_the_grazing_weight`] gives a lobe: water's (η 1.33). Below it a lobe
-/// is no real surface's, and a faint lobe taken to a full weight would rise at grazing angles
-/// to outshine the material there.
-const GRAZING_F0_MIN: f64 = COAT_F0_MIN;
+/// The least F0 [`with_the_grazing_weight`] gives a lobe: a thousandth, a twentieth of
+/// water's (η 1.33). Renderers' principled materials go below water (F0 = 0.08 × their
+/// specular parameter): a dark one of F0 0.0016 was held at s 0.08 by water's floor and
+/// missed its grazing rise (one view 0.89, against 0.13 at this floor). A lobe far fainter
+/// than that, taken to a full weight, would rise at grazing angles to outshine the material.
+const GRAZING_F0_MIN: f64 = 1e-3;
 
 /// The fit with its lobe's specular weight s raised toward `weight`, s·F0 per channel kept,
 /// as far as the paint cannot tell: the fit's RMS log residual stays within
@@ -505,8 +507,8 @@ const GRAZING_F0_MIN: f64 = COAT_F0_MIN;
 /// a clear coat's weight came out 0.17, 0.06 and 0.71 from one, two and three views, and the
 /// relative error over the table, which its grazing entries dominate, followed (0.745,
 /// 0.834, 0.439). `weight` is a prior over that split (every real surface's Fresnel reaches 1
-/// at grazing, a Phong lobe's stays at s·F0), bounded so that F0 stays between a real
-/// dielectric's least ([`GRAZING_F0_MIN`]) and 1. A weight at or above the prior's is the
+/// at grazing, a Phong lobe's stays at s·F0), bounded so that F0 stays between
+/// [`GRAZING_F0_MIN`] and 1. A weight at or above the prior's is the
 /// fit's own and stays.
 fn with_the_grazing_weight(observations: &[Observation], fit: ShapeFit, weight: f64) -> ShapeFit {
     let model = fit.model();
@@ -1788,10 +1790,10 @@ mod tests {
             "{free:?}\n{full:?}"
         );
 
-        // A faint lobe takes no more weight than leaves its F0 at water's: a weight of 0.01
-        // at F0 0.04 moves to 0.02 at F0 0.02, not to 0.98 at F0 0.0004.
+        // A faint lobe takes no more weight than leaves its F0 at the floor: a weight of
+        // 0.001 at F0 0.04 moves to 0.04 at F0 0.001, not to 0.98 at F0 0.00004.
         let faint = LambertMicrofacet {
-            specular: 0.01,
+            specular: 0.001,
             f0: [0.04; 3],
             ..full
         };
@@ -1806,7 +1808,7 @@ mod tests {
             shape,
         };
         let moved = with_the_grazing_weight(&observations, start, 0.98).model();
-        assert!((moved.specular - 0.02).abs() < 1e-6, "{moved:?}");
+        assert!((moved.specular - 0.04).abs() < 1e-6, "{moved:?}");
         assert!(
             moved
                 .f0

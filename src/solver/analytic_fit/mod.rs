@@ -1675,6 +1675,31 @@ mod tests {
         binned(&pixels, |l, v| brdf.eval(l, v), shown)
     }
 
+    /// A dark principled material whose specular parameter is low (0.02: F0 0.0016, far below
+    /// water's 0.02) seen from one light: the view cannot split the lobe's head-on reflectance
+    /// into its weight and F0, and the grazing weight takes the weight to 0.98 with F0 at
+    /// the truth's. Water's floor held it at 0.08, where the lobe's grazing rise was a twelfth
+    /// of the truth's (the folds' one view 0.89; 0.13 now).
+    #[test]
+    fn a_dim_principled_specular_takes_its_grazing_rise_from_one_view() {
+        use crate::materials::principled::Principled;
+        let surface = Principled {
+            base_color: [0.021, 0.034, 0.028],
+            specular: 0.02,
+            roughness: 0.38,
+            ..Principled::default()
+        };
+        let options = FitOptions {
+            grazing_weight: Some(0.98),
+            ..FitOptions::default()
+        };
+        let fit =
+            fit_lambert_microfacet_bounded(&sphere_view(&surface, 45.0, false), &options).model;
+        println!("{fit:?}");
+        assert!(fit.specular > 0.9, "{fit:?}");
+        assert!(fit.f0.iter().all(|&f0| f0 < 0.004), "{fit:?}");
+    }
+
     /// One 8-bit view of a metal hides the conductor's curve an HDR view shows by the margin,
     /// and a Schlick lobe then carries the wrong rise to grazing angles. Painted as `burnish
     /// render` paints a table (each pixel the ρ of its bins' centres, π·ρ·cos θ_l stored as

@@ -1313,10 +1313,7 @@ mod tests {
                 ),
             ],
         };
-        let bins: Vec<_> = pairs_at_half_differences(7, &[14.0..16.0, 33.0..37.0])
-            .into_iter()
-            .map(|(pair, l, v)| (pair, polished.eval(l, v), EXACT))
-            .collect();
+        let bins = exact_paint(&polished, 7, &[14.0..16.0, 33.0..37.0]);
         let options = FitOptions {
             beckmann_margin: Some(1.0),
             edge_margin: Some(1.5),
@@ -1348,10 +1345,7 @@ mod tests {
                 k: [3.740, 3.190, 2.620],
             },
         );
-        let bins: Vec<_> = pairs_at_half_differences(7, &[14.0..16.0, 21.0..24.0])
-            .into_iter()
-            .map(|(pair, l, v)| (pair, nickel.eval(l, v), EXACT))
-            .collect();
+        let bins = exact_paint(&nickel, 7, &[14.0..16.0, 21.0..24.0]);
         let options = FitOptions {
             beckmann_margin: Some(1.0),
             edge_margin: Some(1.5),
@@ -1395,12 +1389,8 @@ mod tests {
             ],
         };
         let truth = crate::materials::tabulate(&plastic);
-        let paint = |ranges: &[std::ops::Range<f64>]| -> Vec<_> {
-            pairs_at_half_differences(3, ranges)
-                .into_iter()
-                .map(|(pair, l, v)| (pair, plastic.eval(l, v), EXACT))
-                .collect()
-        };
+        let paint =
+            |ranges: &[std::ops::Range<f64>]| -> Vec<_> { exact_paint(&plastic, 3, ranges) };
         let two_views = paint(&[20.0..24.0, 55.0..62.0]);
         let schlick = FitOptions {
             beckmann_margin: Some(1.0),
@@ -1442,12 +1432,8 @@ mod tests {
             rotation: 0.0,
         };
         let truth = crate::materials::tabulate(&surface);
-        let paint = |ranges: &[std::ops::Range<f64>]| -> Vec<_> {
-            pairs_at_half_differences(5, ranges)
-                .into_iter()
-                .map(|(pair, l, v)| (pair, surface.eval(l, v), EXACT))
-                .collect()
-        };
+        let paint =
+            |ranges: &[std::ops::Range<f64>]| -> Vec<_> { exact_paint(&surface, 5, ranges) };
         let three_views = paint(&[20.0..24.0, 40.0..44.0, 58.0..62.0]);
         let microfacet = FitOptions {
             beckmann_margin: Some(1.0),
@@ -1470,6 +1456,18 @@ mod tests {
         let one_view = paint(&[20.0..24.0]);
         let (fit, _) = fit_and_score(&one_view, &phong, &truth);
         assert_ne!(fit.distribution, Distribution::AshikhminShirley, "{fit:?}");
+    }
+
+    /// HDR paint of `brdf` on [`pairs_at_half_differences`]: each bin's ρ, exact.
+    fn exact_paint(
+        brdf: &dyn Brdf,
+        step: usize,
+        ranges: &[std::ops::Range<f64>],
+    ) -> Vec<(PairIndex, [f64; 3], Bounds)> {
+        pairs_at_half_differences(step, ranges)
+            .into_iter()
+            .map(|(pair, l, v)| (pair, brdf.eval(l, v), EXACT))
+            .collect()
     }
 
     /// Every `step`-th pair whose bin centres' half-difference angle θ_d (degrees) lies in
@@ -1594,10 +1592,7 @@ mod tests {
         assert!(fit.specular < 0.5, "{fit:?}");
         // Where the fit follows the paint exactly (bin centres, no scatter), the paint shows
         // changes far below a thousandth, and the lobe keeps its own weight at θ_d near 30°.
-        let centres: Vec<_> = pairs_at_half_differences(4, &[28.0..33.0])
-            .into_iter()
-            .map(|(pair, l, v)| (pair, flat.eval(l, v), EXACT))
-            .collect();
+        let centres = exact_paint(&flat, 4, &[28.0..33.0]);
         let fit = fit_lambert_microfacet_bounded(&centres, &options).model;
         assert!(fit.specular < 0.1, "{fit:?}");
     }
@@ -1791,10 +1786,7 @@ mod tests {
             ],
         };
         let paint = |brdf: &Mixture, ranges: &[std::ops::Range<f64>]| -> Vec<_> {
-            pairs_at_half_differences(2, ranges)
-                .into_iter()
-                .map(|(pair, l, v)| (pair, brdf.eval(l, v), EXACT))
-                .collect()
+            exact_paint(brdf, 2, ranges)
         };
         let options = FitOptions {
             grazing_weight: Some(0.98),
@@ -2632,10 +2624,7 @@ mod tests {
             edge: None,
             ..tinted_metal
         };
-        let one_view: Vec<_> = pairs_at_half_differences(101, &[24.0..28.0])
-            .into_iter()
-            .map(|(pair, l, v)| (pair, tinted_metal.eval(l, v), EXACT))
-            .collect();
+        let one_view = exact_paint(&tinted_metal, 101, &[24.0..28.0]);
         for (bins, keeps_tint) in [
             (exact_bins(&tinted_metal, 2_003), true),
             (one_view, false),

@@ -92,6 +92,10 @@ pub enum Distribution {
     /// G₂/(4 cos θ_l cos θ_v): a lobe whose rise toward grazing is far gentler, as Phong-like
     /// lobes' are (Ashikhmin–Shirley's, Blinn–Phong's, Ward's).
     AshikhminShirley,
+    /// Beckmann's slopes under Blinn–Phong's implicit masking, G = cos θ_l cos θ_v, in place
+    /// of Smith's: D/4, a lobe with no rise toward grazing but its Fresnel's, as Blinn–Phong's
+    /// normalised lobe ((n + 8)/(8π) cosⁿ θ_h) and Lafortune's cosine lobes have.
+    BlinnPhong,
 }
 
 impl Distribution {
@@ -107,7 +111,7 @@ impl Distribution {
                 let t = sx * sx + sy * sy + hz * hz;
                 1.0 / (PI * ax * ay * t * t)
             }
-            Distribution::Beckmann | Distribution::AshikhminShirley => {
+            Distribution::Beckmann | Distribution::AshikhminShirley | Distribution::BlinnPhong => {
                 let hz2 = hz * hz;
                 let e = (-(sx * sx + sy * sy) / hz2).exp();
                 if e == 0.0 {
@@ -135,7 +139,7 @@ impl Distribution {
         let z = wz.max(MIN_COS);
         match self {
             // Its normalisation stands in for masking and shadowing.
-            Distribution::AshikhminShirley => 0.0,
+            Distribution::AshikhminShirley | Distribution::BlinnPhong => 0.0,
             Distribution::Ggx => 0.5 * ((1.0 + s2 / (z * z)).sqrt() - 1.0),
             Distribution::Beckmann => {
                 // Walter et al. 2007's rational fit of the erf form.
@@ -202,6 +206,9 @@ fn microfacet_dg_turned(
     let d = distribution.d(hx, hy, h.z, ax, ay);
     if d == 0.0 {
         return 0.0;
+    }
+    if distribution == Distribution::BlinnPhong {
+        return 0.25 * d;
     }
     if distribution == Distribution::AshikhminShirley {
         // Both cosines, summed, so that swapping l and v gives the same bits.
@@ -687,6 +694,7 @@ pub(crate) mod tests {
             Box::new(aniso(Distribution::Ggx)),
             Box::new(aniso(Distribution::Beckmann)),
             Box::new(aniso(Distribution::AshikhminShirley)),
+            Box::new(aniso(Distribution::BlinnPhong)),
             Box::new(Microfacet::isotropic(
                 Distribution::Ggx,
                 0.02,
@@ -754,7 +762,8 @@ pub(crate) mod tests {
         assert_eq!(
             flags,
             [
-                true, true, false, false, false, true, false, false, true, true, false, true, true
+                true, true, false, false, false, false, true, false, false, true, true, false,
+                true, true
             ]
         );
         for (i, b) in examples().iter().enumerate() {
@@ -897,6 +906,63 @@ pub(crate) mod tests {
         let (l, v) = at(1.4, 0.0);
         assert!(beckmann.eval(l, v)[0] > 2.0 * phong.eval(l, v)[0]);
         assert_eq!(phong.eval(l, v), phong.eval(v, l));
+    }
+
+    /// Blinn–Phong's implicit masking leaves Beckmann's slopes over 4: head-on it is
+    /// Beckmann's microfacet lobe, elsewhere D·F/4, rising toward grazing with the Fresnel
+    /// alone; for a sharp lobe it is Blinn–Phong's normalised lobe, (n + 8)/(8π) cosⁿ θ_h at
+    /// n = 2/α² − 2.
+    #[test]
+    fn blinn_phongs_implicit_masking_leaves_beckmanns_slopes_over_four() {
+        let alpha = 0.1;
+        let f0 = [0.04, 0.5, 0.9];
+        let lobe =
+            |distribution| Microfacet::isotropic(distribution, alpha, Fresnel::Schlick { f0 });
+        let (blinn, beckmann) = (lobe(Distribution::BlinnPhong), lobe(Distribution::Beckmann));
+        let (got, want) = (
+            blinn.eval(DVec3::Z, DVec3::Z),
+            beckmann.eval(DVec3::Z, DVec3::Z),
+        );
+        for c in 0..3 {
+            assert!(
+                (got[c] - want[c]).abs() < 1e-12 * want[c],
+                "{got:?} vs {want:?}"
+            );
+        }
+        let at = |tl: f64, tv: f64| {
+            let l = DVec3::new(tl.sin(), 0.0, tl.cos());
+            let v = DVec3::new(-tv.sin(), 0.0, tv.cos());
+            (l, v)
+        };
+        let classic = crate::materials::classic::BlinnPhong {
+            diffuse: [0.0; 3],
+            specular: f0,
+            exponent: 2.0 / (alpha * alpha) - 2.0,
+            fresnel: true,
+        };
+        let a2 = alpha * alpha;
+        // Mirror pairs from head-on to grazing, and pairs off the mirror direction by up to
+        // 0.15 rad in θ_h, where the lobe falls to a tenth of its peak.
+        for (tl, tv) in [(0.5, 0.5), (1.4, 1.4), (0.6, 0.3), (0.2, 0.4), (1.3, 1.0)] {
+            let (l, v) = at(tl, tv);
+            let h = (l + v).normalize();
+            let d = (-(1.0 - h.z * h.z) / (h.z * h.z * a2)).exp() / (PI * a2 * h.z.powi(4));
+            let (got, phong) = (blinn.eval(l, v), classic.eval(l, v));
+            for c in 0..3 {
+                let f = f0[c] + (1.0 - f0[c]) * (1.0 - l.dot(h)).powi(5);
+                let want = d * f / 4.0;
+                assert!((got[c] - want).abs() < 1e-12 * want, "{got:?} vs {want}");
+                assert!(
+                    (got[c] / phong[c] - 1.0).abs() < 0.05,
+                    "{got:?} vs {phong:?}"
+                );
+            }
+            assert_eq!(got, blinn.eval(v, l));
+        }
+        // At a grazing mirror pair (θ 80°) the microfacet lobe's 1/(cos θ_l cos θ_v) has
+        // risen far beyond it.
+        let (l, v) = at(1.4, 1.4);
+        assert!(beckmann.eval(l, v)[0] > 2.0 * blinn.eval(l, v)[0]);
     }
 
     #[test]

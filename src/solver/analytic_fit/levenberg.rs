@@ -418,6 +418,13 @@ mod tests {
                 },
             ),
             (
+                shape(Distribution::BlinnPhong),
+                LambertMicrofacet {
+                    distribution: Distribution::BlinnPhong,
+                    ..PLASTIC
+                },
+            ),
+            (
                 Shape {
                     two_lobes: true,
                     ..shape(Distribution::Ggx)

@@ -327,7 +327,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             rough_margin: None,
             grazing_weight: None,
             dielectric_margin: None,
-            ashikhmin_margin: None,
+            phong_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

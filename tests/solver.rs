@@ -527,7 +527,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         rough_margin: None,
         grazing_weight: None,
         dielectric_margin: None,
-        ashikhmin_margin: None,
+        phong_margin: None,
         closer_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));

@@ -112,10 +112,11 @@ pub struct ReconstructArgs {
     /// Fresnel, tried where the fit has almost no diffuse, kept where it fits better by the
     /// factor R), +dielectric or +dielectric:R (a dielectric's exact Fresnel instead of
     /// Schlick's, tried where the fit has more diffuse than specular and the views span
-    /// θ_d over 10°, kept where it fits better by the factor R), +ashikhmin or +ashikhmin:R
-    /// (Ashikhmin and Shirley's normalisation of the lobe, whose rise toward grazing is
-    /// gentler than a microfacet lobe's, tried where the views span θ_d over 10°, kept where
-    /// it fits better by the factor R), and
+    /// θ_d over 10°, kept where it fits better by the factor R), +phong or +phong:R
+    /// (Phong-like lobes: Ashikhmin and Shirley's normalisation, whose rise toward grazing is
+    /// gentler than a microfacet lobe's, and Blinn–Phong's implicit masking, which rises only
+    /// with the Fresnel, tried where the views span θ_d over 10°, the better kept where it
+    /// fits better by the factor R), and
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
     /// weight, its reflectance at grazing incidence, raised toward S where the paint cannot
@@ -123,7 +124,7 @@ pub struct ReconstructArgs {
     /// cannot tell which a painting means), and +closer:R (the fit also taken, whatever the
     /// evidence, where it explains the paint R times as closely as the database's mean
     /// does). The default,
-    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+grazing:0.98+dielectric:1.1+ashikhmin:1.1+closer:3, is
+    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+grazing:0.98+dielectric:1.1+phong:1.1+closer:3, is
     /// what `burnish calibrate` and the bench chose (the dielectric's margin on hand-built
     /// materials: the calibration's dielectrics all have Schlick's Fresnel).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]

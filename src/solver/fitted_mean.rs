@@ -163,7 +163,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             rough_margin,
             grazing_weight,
             dielectric_margin,
-            ashikhmin_margin,
+            phong_margin,
             ..
         } => FitOptions {
             beckmann_margin,
@@ -173,7 +173,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             rough_margin,
             grazing_weight,
             dielectric_margin,
-            ashikhmin_margin,
+            phong_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -314,7 +314,7 @@ mod tests {
             rough_margin: Some(1.4),
             grazing_weight: Some(0.9),
             dielectric_margin: Some(1.6),
-            ashikhmin_margin: Some(1.7),
+            phong_margin: Some(1.7),
             closer_margin: None,
         };
         let options = fit_options(mean);
@@ -325,7 +325,7 @@ mod tests {
         assert_eq!(options.rough_margin, Some(1.4));
         assert_eq!(options.grazing_weight, Some(0.9));
         assert_eq!(options.dielectric_margin, Some(1.6));
-        assert_eq!(options.ashikhmin_margin, Some(1.7));
+        assert_eq!(options.phong_margin, Some(1.7));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

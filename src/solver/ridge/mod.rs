@@ -1301,7 +1301,7 @@ mod tests {
                 rough_margin: None,
                 grazing_weight: None,
                 dielectric_margin: None,
-                ashikhmin_margin: None,
+                phong_margin: None,
                 closer_margin: None,
             },
             ..MODEL

@@ -862,21 +862,29 @@ pub(crate) mod tests {
         }
     }
 
-    /// Ashikhmin and Shirley's normalisation keeps Beckmann's slopes: head-on, where Smith's
-    /// G₂ is 1, the two lobes agree; elsewhere the lobe is D/(4 (v·h) max(cos θ_l, cos θ_v)),
-    /// and toward grazing it rises far less than the microfacet lobe.
-    #[test]
-    fn ashikhmin_shirleys_normalisation_keeps_beckmanns_slopes() {
-        let alpha = 0.3;
-        let f0 = [0.04, 0.5, 0.9];
+    /// Light and view in the xz-plane at polar angles `tl` and `tv` (radians), on either
+    /// side of the normal.
+    fn in_plane(tl: f64, tv: f64) -> (DVec3, DVec3) {
+        (
+            DVec3::new(tl.sin(), 0.0, tl.cos()),
+            DVec3::new(-tv.sin(), 0.0, tv.cos()),
+        )
+    }
+
+    /// Beckmann's isotropic D(h) of roughness `alpha`.
+    fn beckmann_d(h: DVec3, alpha: f64) -> f64 {
+        let a2 = alpha * alpha;
+        (-(1.0 - h.z * h.z) / (h.z * h.z * a2)).exp() / (PI * a2 * h.z.powi(4))
+    }
+
+    /// Isotropic lobes of `distribution` and of Beckmann's, roughness `alpha`, Schlick's F0
+    /// `f0`; asserts that head-on, where Smith's G₂ is 1, the two agree.
+    fn beside_beckmann(distribution: Distribution, alpha: f64, f0: [f64; 3]) -> [Microfacet; 2] {
         let lobe =
             |distribution| Microfacet::isotropic(distribution, alpha, Fresnel::Schlick { f0 });
-        let (phong, beckmann) = (
-            lobe(Distribution::AshikhminShirley),
-            lobe(Distribution::Beckmann),
-        );
+        let (lobe, beckmann) = (lobe(distribution), lobe(Distribution::Beckmann));
         let (got, want) = (
-            phong.eval(DVec3::Z, DVec3::Z),
+            lobe.eval(DVec3::Z, DVec3::Z),
             beckmann.eval(DVec3::Z, DVec3::Z),
         );
         for c in 0..3 {
@@ -885,15 +893,19 @@ pub(crate) mod tests {
                 "{got:?} vs {want:?}"
             );
         }
-        let at = |tl: f64, tv: f64| {
-            let l = DVec3::new(tl.sin(), 0.0, tl.cos());
-            let v = DVec3::new(-tv.sin(), 0.0, tv.cos());
-            (l, v)
-        };
-        let (l, v) = at(0.5, 1.1);
+        [lobe, beckmann]
+    }
+
+    /// Ashikhmin and Shirley's normalisation keeps Beckmann's slopes: head-on, where Smith's
+    /// G₂ is 1, the two lobes agree; elsewhere the lobe is D/(4 (v·h) max(cos θ_l, cos θ_v)),
+    /// and toward grazing it rises far less than the microfacet lobe.
+    #[test]
+    fn ashikhmin_shirleys_normalisation_keeps_beckmanns_slopes() {
+        let (alpha, f0) = (0.3, [0.04, 0.5, 0.9]);
+        let [phong, beckmann] = beside_beckmann(Distribution::AshikhminShirley, alpha, f0);
+        let (l, v) = in_plane(0.5, 1.1);
         let h = (l + v).normalize();
-        let a2 = alpha * alpha;
-        let d = (-(1.0 - h.z * h.z) / (h.z * h.z * a2)).exp() / (PI * a2 * h.z.powi(4));
+        let d = beckmann_d(h, alpha);
         let got = phong.eval(l, v);
         for c in 0..3 {
             let f = f0[c] + (1.0 - f0[c]) * (1.0 - l.dot(h)).powi(5);
@@ -903,7 +915,7 @@ pub(crate) mod tests {
         // Light at grazing (θ_l 80°), view head-on: the microfacet lobe's 1/(cos θ_l cos θ_v)
         // outgrows Ashikhmin–Shirley's 1/((v·h) cos θ_v) by far, its G₂ notwithstanding (at
         // a mirror pair, where v·h is the larger cosine, the two differ by G₂ alone).
-        let (l, v) = at(1.4, 0.0);
+        let (l, v) = in_plane(1.4, 0.0);
         assert!(beckmann.eval(l, v)[0] > 2.0 * phong.eval(l, v)[0]);
         assert_eq!(phong.eval(l, v), phong.eval(v, l));
     }
@@ -914,39 +926,20 @@ pub(crate) mod tests {
     /// n = 2/α² − 2.
     #[test]
     fn blinn_phongs_implicit_masking_leaves_beckmanns_slopes_over_four() {
-        let alpha = 0.1;
-        let f0 = [0.04, 0.5, 0.9];
-        let lobe =
-            |distribution| Microfacet::isotropic(distribution, alpha, Fresnel::Schlick { f0 });
-        let (blinn, beckmann) = (lobe(Distribution::BlinnPhong), lobe(Distribution::Beckmann));
-        let (got, want) = (
-            blinn.eval(DVec3::Z, DVec3::Z),
-            beckmann.eval(DVec3::Z, DVec3::Z),
-        );
-        for c in 0..3 {
-            assert!(
-                (got[c] - want[c]).abs() < 1e-12 * want[c],
-                "{got:?} vs {want:?}"
-            );
-        }
-        let at = |tl: f64, tv: f64| {
-            let l = DVec3::new(tl.sin(), 0.0, tl.cos());
-            let v = DVec3::new(-tv.sin(), 0.0, tv.cos());
-            (l, v)
-        };
+        let (alpha, f0) = (0.1, [0.04, 0.5, 0.9]);
+        let [blinn, beckmann] = beside_beckmann(Distribution::BlinnPhong, alpha, f0);
         let classic = crate::materials::classic::BlinnPhong {
             diffuse: [0.0; 3],
             specular: f0,
             exponent: 2.0 / (alpha * alpha) - 2.0,
             fresnel: true,
         };
-        let a2 = alpha * alpha;
         // Mirror pairs from head-on to grazing, and pairs off the mirror direction by up to
         // 0.15 rad in θ_h, where the lobe falls to a tenth of its peak.
         for (tl, tv) in [(0.5, 0.5), (1.4, 1.4), (0.6, 0.3), (0.2, 0.4), (1.3, 1.0)] {
-            let (l, v) = at(tl, tv);
+            let (l, v) = in_plane(tl, tv);
             let h = (l + v).normalize();
-            let d = (-(1.0 - h.z * h.z) / (h.z * h.z * a2)).exp() / (PI * a2 * h.z.powi(4));
+            let d = beckmann_d(h, alpha);
             let (got, phong) = (blinn.eval(l, v), classic.eval(l, v));
             for c in 0..3 {
                 let f = f0[c] + (1.0 - f0[c]) * (1.0 - l.dot(h)).powi(5);
@@ -961,7 +954,7 @@ pub(crate) mod tests {
         }
         // At a grazing mirror pair (θ 80°) the microfacet lobe's 1/(cos θ_l cos θ_v) has
         // risen far beyond it.
-        let (l, v) = at(1.4, 1.4);
+        let (l, v) = in_plane(1.4, 1.4);
         assert!(beckmann.eval(l, v)[0] > 2.0 * blinn.eval(l, v)[0]);
     }
 

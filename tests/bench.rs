@@ -328,6 +328,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             grazing_weight: None,
             dielectric_margin: None,
             phong_margin: None,
+            gtr_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

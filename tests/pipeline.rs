@@ -322,36 +322,33 @@ fn median(evaluations: &[Evaluation], field: impl Fn(&Evaluation) -> f64) -> f64
 /// After each added view the mean relative RMSE and the mean log RMSE must not rise, nor the
 /// median relative RMSE or median log RMSE by more than 1%; no material's log RMSE may rise by
 /// more than 4%, nor its relative RMSE grow by more than 20%. From one view to three, the
-/// issue's bound holds for every material but the two metals below: relative RMSE at most 10%
+/// issue's bound holds for every material but the metal below: relative RMSE at most 10%
 /// above one view's, and log RMSE no higher.
 ///
-/// Measured on the default fitted reference: the median relative RMSE goes 0.198 → 0.075 →
-/// 0.060 and the median log RMSE 0.170 → 0.081 → 0.072. The largest rises among the stepped
-/// materials: a dark Minnaert's relative RMSE 0.107 → 0.116 (+8%) and forward scattering's
+/// Measured on the default fitted reference: the median relative RMSE goes 0.105 → 0.075 →
+/// 0.060 and the median log RMSE 0.164 → 0.074 → 0.065. The largest rises among the stepped
+/// materials: a dark Minnaert's relative RMSE 0.098 → 0.108 (+10%) and forward scattering's
 /// 0.039 → 0.040 (+3%) from two views to three.
 ///
-/// Two metals are held by bounds of their own instead of the steps, each below what one lobe
-/// gives it at every view count. The reference's haze (a sharp lobe over a broad one of the
-/// same Fresnel, in the default since it made the bench's two-lobe gold exact) fits them far
+/// One metal is held by a bound of its own instead of the steps, below what one lobe gives it
+/// at every view count: the coated brushed metal (a clear coat over an anisotropic Beckmann
+/// base), which no single lobe holds. The reference's haze (a sharp lobe over a broad one of
+/// the same Fresnel, in the default since it made the bench's two-lobe gold exact) fits it far
 /// better than one lobe, but the correction on top of it no longer gains with each view:
-/// - the coated brushed metal (a clear coat over an anisotropic Beckmann base), which no
-///   single lobe holds: 0.062 → 0.056 → 0.060, log RMSE 0.164 → 0.161 → 0.170 (one lobe
-///   0.101 → 0.121 → 0.126, log RMSE 0.404 → 0.381 → 0.382);
-/// - the GTR metal (γ = 3, Kelemen's masking): 0.092 → 0.103 → 0.119, log RMSE 0.110 →
-///   0.115 → 0.116 (one lobe 0.229 → 0.203 → 0.164, log RMSE 0.288 → 0.152 → 0.138). Its
-///   error sits where no view of the issue paints: the back-scatter peak (θ_d under 10°) and
-///   the grazing mirror.
+/// 0.062 → 0.056 → 0.060, log RMSE 0.164 → 0.161 → 0.170 (one lobe 0.101 → 0.121 → 0.126,
+/// log RMSE 0.404 → 0.381 → 0.382).
 ///
-/// They count in the set's means and its log medians like every other material; the other
-/// nine materials' median relative RMSE must not rise (0.262 → 0.075 → 0.040).
+/// The GTR metal (γ = 3, Kelemen's masking) was held likewise while the reference fitted it
+/// a Beckmann lobe with a haze (0.092 → 0.103 → 0.119); with GTR's tails in the fit it
+/// steps like the rest: 0.105 → 0.099 → 0.099, log RMSE 0.074 → 0.073 → 0.065.
+///
+/// It counts in the set's means and its log medians like every other material; the other
+/// ten materials' median relative RMSE must not rise.
 #[test]
 fn every_added_view_helps_materials_unlike_the_database() {
     /// (material, relative RMSE bound, log RMSE bound) at every view count: about 5% above
     /// what is measured, so that a regression of that size fails.
-    const OWN_BOUNDS: [(&str, f64, f64); 2] = [
-        ("hand-coated-brushed", 0.066, 0.179),
-        ("hand-gtr-metal", 0.125, 0.122),
-    ];
+    const OWN_BOUNDS: [(&str, f64, f64); 1] = [("hand-coated-brushed", 0.066, 0.179)];
     let own_bound = |name: &str| OWN_BOUNDS.iter().find(|(held, ..)| *held == name);
     const ISSUE_LIGHTS: [(f64, f64); 3] = [(45.0, 30.0), (60.0, 200.0), (20.0, 120.0)];
     let dir = tempfile::tempdir().unwrap();

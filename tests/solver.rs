@@ -528,6 +528,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         grazing_weight: None,
         dielectric_margin: None,
         phong_margin: None,
+        gtr_margin: None,
         closer_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));

@@ -431,6 +431,7 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
         grazing_weight: None,
         dielectric_margin: None,
         phong_margin: None,
+        gtr_margin: None,
         closer_margin: None,
     };
     let worker = Worker::spawn(Policy::Mean, Regularization::Auto);

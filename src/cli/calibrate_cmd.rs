@@ -58,7 +58,7 @@ pub struct CalibrateArgs {
     /// +coat[:R] (a clear coat over the lobe, likewise), +edge[:R] (a conductor's Fresnel with
     /// an edge tint, likewise), +dielectric[:R] (a dielectric's exact Fresnel, likewise),
     /// +phong[:R] (Ashikhmin and Shirley's normalisation of the lobe or Blinn–Phong's
-    /// implicit masking, likewise),
+    /// implicit masking, likewise), +gtr[:R] (GTR's tails, its exponent fitted, likewise),
     /// +haze[:R] (a metal's lobe over a broad glow, likewise),
     /// +rough[:R] (an Oren–Nayar diffuse, likewise), +grazing:S (the specular weight S where
     /// the paint cannot tell it from F0) and +closer:R (the fit also taken where it explains

@@ -164,6 +164,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             grazing_weight,
             dielectric_margin,
             phong_margin,
+            gtr_margin,
             ..
         } => FitOptions {
             beckmann_margin,
@@ -174,6 +175,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             grazing_weight,
             dielectric_margin,
             phong_margin,
+            gtr_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -315,6 +317,7 @@ mod tests {
             grazing_weight: Some(0.9),
             dielectric_margin: Some(1.6),
             phong_margin: Some(1.7),
+            gtr_margin: Some(1.8),
             closer_margin: None,
         };
         let options = fit_options(mean);
@@ -326,6 +329,7 @@ mod tests {
         assert_eq!(options.grazing_weight, Some(0.9));
         assert_eq!(options.dielectric_margin, Some(1.6));
         assert_eq!(options.phong_margin, Some(1.7));
+        assert_eq!(options.gtr_margin, Some(1.8));
         assert_eq!(options.finalists, FitOptions::default().finalists);
         assert_eq!(fit_options(PriorMean::Database), FitOptions::default());
         assert_eq!(fit_options(PriorMean::FITTED).beckmann_margin, Some(1.0));

@@ -2,7 +2,7 @@
 //! Jacobian summed in deterministic chunks, and damped steps from several starts.
 
 use super::model::{LambertMicrofacet, Prepared};
-use super::params::{COAT_SHAPE, P, Params, SHAPE, SIGMA, Shape, model_of};
+use super::params::{COAT_SHAPE, GAMMA, P, Params, SHAPE, SIGMA, Shape, model_of};
 use super::{FitOptions, Observation};
 use crate::basis::MAP_EPSILON;
 use crate::materials::models::{Fresnel, LobeShape, above, cos_half_difference};
@@ -178,8 +178,9 @@ pub(super) fn normal_equations(
             let model = model_of(&t, shape);
             Stepped {
                 lobe: SHAPE.contains(&i).then(|| model.parts().1.shape()),
-                // A haze's lobe carries the first's Fresnel, which its D·G does not use.
-                second: (i == COAT_SHAPE)
+                // A haze's lobe carries the first's Fresnel, which its D·G does not use; a
+                // coat's lobe shares the first's GTR exponent.
+                second: (i == COAT_SHAPE || i == GAMMA)
                     .then(|| model.second_part().map(|s| s.shape()))
                     .flatten(),
                 diffuse: i == SIGMA,
@@ -425,11 +426,29 @@ mod tests {
                 },
             ),
             (
+                shape(Distribution::Gtr { gamma: 2.0 }),
+                LambertMicrofacet {
+                    distribution: Distribution::Gtr { gamma: 1.4 },
+                    ..PLASTIC
+                },
+            ),
+            (
                 Shape {
                     two_lobes: true,
                     ..shape(Distribution::Ggx)
                 },
                 LambertMicrofacet {
+                    coat: Some(coat),
+                    ..PLASTIC
+                },
+            ),
+            (
+                Shape {
+                    two_lobes: true,
+                    ..shape(Distribution::Gtr { gamma: 2.0 })
+                },
+                LambertMicrofacet {
+                    distribution: Distribution::Gtr { gamma: 3.0 },
                     coat: Some(coat),
                     ..PLASTIC
                 },

@@ -1,7 +1,7 @@
 //! The analytic baseline: Lambert plus an anisotropic microfacet lobe (GGX, and where asked
-//! Beckmann beside it or, from views that span θ_d, Ashikhmin and Shirley's normalisation or
-//! Blinn–Phong's implicit masking, and where asked an Oren–Nayar diffuse instead of Lambert's) fitted by
-//! Levenberg–Marquardt to the same binned samples the sparse solver sees, as tools like
+//! Beckmann beside it, GTR with its tail exponent fitted or, from views that span θ_d,
+//! Ashikhmin and Shirley's normalisation or Blinn–Phong's implicit masking, and where asked an
+//! Oren–Nayar diffuse instead of Lambert's) fitted by Levenberg–Marquardt to the same binned samples the sparse solver sees, as tools like
 //! BRDFLab fit analytic models.
 //!
 //! The residual of a bin is ln((ρ̂c + ε)/(ρc + ε)) per channel, weighted by the bin's pair
@@ -31,6 +31,9 @@ use glam::DVec3;
 use levenberg::{ParameterPrior, ShapeFit, cost, fit_shape, fit_shape_with_prior, residuals};
 use params::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+
+/// GTR exponents each GTR fit starts from: long tails, GGX's, and a core near Beckmann's.
+const GTR_STARTS: [f64; 3] = [1.3, 2.0, 4.0];
 
 /// One observed bin, ready for the fit.
 #[derive(Clone, Copy, Debug)]
@@ -86,6 +89,12 @@ pub struct FitOptions {
     /// or more (one view shows one θ_d, where the normalisations part only beyond what it
     /// paints).
     pub phong_margin: Option<f64>,
+    /// Also fit a GTR lobe ([`Distribution::Gtr`], its tail exponent γ fitted) from the GGX
+    /// and Beckmann fits, and keep it over the chosen microfacet fit when its RMS log residual
+    /// and its brightness-weighted one are both below that fit's divided by this factor;
+    /// `None`: GGX's and Beckmann's tails only. Tried only where the chosen fit is GGX's or
+    /// Beckmann's (not a Phong-like lobe's), from one view on.
+    pub gtr_margin: Option<f64>,
     /// Also fit a haze (a share of the lobe's reflectance over a second, isotropic lobe with
     /// the same Fresnel) beside the chosen lobe, and keep it when its RMS log residual and its
     /// brightness-weighted one are both below one lobe's divided by this factor; `None`: one
@@ -115,6 +124,7 @@ impl Default for FitOptions {
             edge_margin: None,
             dielectric_margin: None,
             phong_margin: None,
+            gtr_margin: None,
             haze_margin: None,
             rough_margin: None,
             grazing_weight: None,
@@ -241,6 +251,41 @@ pub fn fit_lambert_microfacet_bounded(
         }
         if let Some(phong) = phong.filter(|phong| score(phong).beats(score(&best), margin)) {
             best = phong;
+        }
+    }
+    if let Some(margin) = options.gtr_margin.filter(|_| {
+        matches!(
+            best.shape.distribution,
+            Distribution::Ggx | Distribution::Beckmann
+        )
+    }) {
+        // GGX's and Beckmann's tails are two points of a family: measured materials' lobes
+        // fall off more slowly than GGX's (Burley 2012), and others have a core between the
+        // two. A lobe fitted with the wrong tails trades its width and its Fresnel against
+        // them, and extrapolates both wrong. One view already shows the lobe's profile over
+        // θ_h, so the stage runs from one view on. GTR's exponent moves the tails
+        // continuously, starting from each one-lobe fit's optimum at long, GGX's and short
+        // tails.
+        let starts: Vec<Params> = std::iter::once(&ggx)
+            .chain(beckmann.as_ref())
+            .flat_map(|fit| {
+                GTR_STARTS.map(|gamma| {
+                    let mut theta = fit.theta;
+                    theta[GAMMA] = gamma_param(gamma);
+                    theta
+                })
+            })
+            .collect();
+        let gtr = fit_shape(
+            &observations,
+            &starts,
+            Shape::one_lobe(Distribution::Gtr { gamma: 2.0 }),
+            options,
+        );
+        iterations += gtr.iterations;
+        tried += starts.len();
+        if score(&gtr).beats(score(&best), margin) {
+            best = gtr;
         }
     }
     if let Some(margin) = options.rough_margin {
@@ -952,14 +997,15 @@ mod tests {
         let extreme = model_of(
             &[
                 1e3, -1e3, 0.0, 50.0, -50.0, 0.0, 1e3, -1e3, 0.0, -1e3, 0.0, 0.0, 1e3, -1e3, 0.0,
-                1e3,
+                1e3, -1e3,
             ],
             Shape {
                 edge: true,
                 rough_diffuse: true,
-                ..Shape::one_lobe(Distribution::Ggx)
+                ..Shape::one_lobe(Distribution::Gtr { gamma: 2.0 })
             },
         );
+        assert_eq!(extreme.distribution, Distribution::Gtr { gamma: GAMMA_MIN });
         assert!(extreme.alpha_x <= ALPHA_MAX && extreme.alpha_y >= ALPHA_MIN);
         assert!(extreme.sigma <= SIGMA_MAX && SIGMA_MAX - extreme.sigma < 1e-12);
         assert_eq!(
@@ -975,6 +1021,16 @@ mod tests {
             ..Shape::one_lobe(rough.distribution)
         };
         assert!((model_of(&params_of(&rough), shape).sigma - 0.55).abs() < 1e-9);
+        let gtr = LambertMicrofacet {
+            distribution: Distribution::Gtr { gamma: 1.37 },
+            ..MIXED
+        };
+        let Distribution::Gtr { gamma } =
+            model_of(&params_of(&gtr), Shape::one_lobe(gtr.distribution)).distribution
+        else {
+            panic!("a GTR lobe");
+        };
+        assert!((gamma - 1.37).abs() < 1e-9);
         assert!(extreme.albedo.iter().all(|a| (0.0..=1.0).contains(a)));
         let edge = extreme.edge.expect("an edge tint");
         assert!(edge.iter().all(|g| (0.0..=1.0).contains(g)));
@@ -1011,6 +1067,7 @@ mod tests {
                     -1e3,
                     0.0,
                     1e3,
+                    0.0,
                     0.0,
                 ],
                 shape,
@@ -1506,6 +1563,44 @@ mod tests {
     }
 
     /// HDR paint of `brdf` on [`pairs_at_half_differences`]: each bin's ρ, exact.
+    /// A plastic with Burley's long tails (GTR γ 1.2, α 0.15, over a red diffuse), painted
+    /// from one view: a GGX or Beckmann lobe trades its width against the tails and
+    /// extrapolates them wrong, where GTR's exponent follows them.
+    #[test]
+    fn one_view_of_long_tails_takes_gtrs_exponent() {
+        let surface = LambertMicrofacet {
+            albedo: [0.5, 0.1, 0.1],
+            f0: [0.04; 3],
+            distribution: Distribution::Gtr { gamma: 1.2 },
+            alpha_x: 0.15,
+            alpha_y: 0.15,
+            rotation: 0.0,
+            specular: 1.0,
+            ..MIXED
+        };
+        let truth = crate::materials::tabulate(&surface);
+        let one_view = exact_paint(&surface, 5, &[20.0..24.0]);
+        let microfacet = FitOptions {
+            beckmann_margin: Some(1.0),
+            ..FitOptions::default()
+        };
+        let tails = FitOptions {
+            gtr_margin: Some(1.5),
+            ..microfacet
+        };
+        let (fit, error) = fit_and_score(&one_view, &tails, &truth);
+        let (microfacet_fit, microfacet_error) = fit_and_score(&one_view, &microfacet, &truth);
+        println!("{fit:?}: {error:?}\n{microfacet_fit:?}: {microfacet_error:?}");
+        let Distribution::Gtr { gamma } = fit.distribution else {
+            panic!("a GTR lobe: {fit:?}");
+        };
+        assert!((gamma - 1.2).abs() < 0.1, "{fit:?}");
+        assert!(
+            error.relative_rmse < 0.5 * microfacet_error.relative_rmse,
+            "{error:?} against {microfacet_error:?}"
+        );
+    }
+
     fn exact_paint(
         brdf: &dyn Brdf,
         step: usize,

@@ -17,12 +17,14 @@ pub(super) const SPECULAR: usize = P_ONE - 1;
 pub(super) const P_COAT: usize = 12;
 /// With an edge tint: its three logits after those.
 pub(super) const EDGE: usize = P_COAT;
-/// With a rough diffuse: the logit of its Oren–Nayar slope within [0, [`SIGMA_MAX`]] last.
+/// With a rough diffuse: the logit of its Oren–Nayar slope within [0, [`SIGMA_MAX`]].
 pub(super) const SIGMA: usize = EDGE + 3;
-pub(super) const P: usize = SIGMA + 1;
-/// The parameters D·G of the first lobe depends on (its roughnesses and turn), and that of
-/// the second (its roughness).
-pub(super) const SHAPE: [usize; 3] = [6, 7, 8];
+/// With a GTR lobe: the logit of its tail exponent γ within [[`GAMMA_MIN`], [`GAMMA_MAX`]] last.
+pub(super) const GAMMA: usize = SIGMA + 1;
+pub(super) const P: usize = GAMMA + 1;
+/// The parameters D·G of the first lobe depends on (its roughnesses, turn and GTR exponent),
+/// and that of the second (its roughness).
+pub(super) const SHAPE: [usize; 4] = [6, 7, 8, GAMMA];
 pub(super) const COAT_SHAPE: usize = 11;
 /// The second lobe's F0 is a dielectric coat's, grey: indices of refraction 1.33 to 1.8.
 /// Why not free: with one light every painted bin has the same θ_d, so a free F0 trades the
@@ -34,6 +36,11 @@ pub(super) const COAT_F0_MAX: f64 = 0.08;
 
 /// A parameter vector; the fit varies only the entries [`Shape::active`] lists.
 pub(super) type Params = [f64; P];
+
+/// GTR's tail exponents: Berry's long tails at 1 (Burley's clear coat) to a core tighter than
+/// Beckmann's at 6; GGX is 2.
+pub(super) const GAMMA_MIN: f64 = 1.0;
+pub(super) const GAMMA_MAX: f64 = 6.0;
 
 /// The roughest diffuse: Oren–Nayar's A and B have all but levelled off by a slope of
 /// 1.2 rad, and the database's rough diffuse reaches 1.
@@ -86,7 +93,7 @@ impl Shape {
         if self.diffuse_only {
             take(0..3);
             if self.rough_diffuse {
-                take(SIGMA..P);
+                take(SIGMA..GAMMA);
             }
             return (indices, n);
         }
@@ -98,7 +105,10 @@ impl Shape {
             take(EDGE..SIGMA);
         }
         if self.rough_diffuse {
-            take(SIGMA..P);
+            take(SIGMA..GAMMA);
+        }
+        if matches!(self.distribution, Distribution::Gtr { .. }) {
+            take(GAMMA..P);
         }
         (indices, n)
     }
@@ -124,6 +134,14 @@ pub(super) fn alpha_param(alpha: f64) -> f64 {
     logit((alpha.ln() - ALPHA_MIN.ln()) / (ALPHA_MAX / ALPHA_MIN).ln())
 }
 
+pub(super) fn gamma_of(s: f64) -> f64 {
+    GAMMA_MIN + (GAMMA_MAX - GAMMA_MIN) * logistic(s)
+}
+
+pub(super) fn gamma_param(gamma: f64) -> f64 {
+    logit((gamma - GAMMA_MIN) / (GAMMA_MAX - GAMMA_MIN))
+}
+
 pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
     let Shape {
         distribution,
@@ -142,7 +160,12 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
             0.0
         },
         f0: [0, 1, 2].map(|c| logistic(theta[3 + c])),
-        distribution,
+        distribution: match distribution {
+            Distribution::Gtr { .. } => Distribution::Gtr {
+                gamma: gamma_of(theta[GAMMA]),
+            },
+            other => other,
+        },
         alpha_x: alpha_of(theta[6]),
         alpha_y: alpha_of(theta[7]),
         // A lobe turned by π is the same lobe: the reported angle stays in [0, π).
@@ -202,6 +225,9 @@ pub(super) fn params_of(model: &LambertMicrofacet) -> Params {
     theta[8] = model.rotation;
     theta[SPECULAR] = logit(model.specular);
     theta[SIGMA] = logit(model.sigma / SIGMA_MAX);
+    if let Distribution::Gtr { gamma } = model.distribution {
+        theta[GAMMA] = gamma_param(gamma);
+    }
     if let Some(second) = model.coat {
         let grey = (second.f0[0] + second.f0[1] + second.f0[2]) / 3.0;
         theta[P_ONE] = logit((grey - COAT_F0_MIN) / (COAT_F0_MAX - COAT_F0_MIN));
@@ -266,7 +292,7 @@ mod tests {
                     rough_diffuse: true,
                     ..one
                 },
-                (0..P_ONE).chain(SIGMA..P).collect(),
+                (0..P_ONE).chain(SIGMA..GAMMA).collect(),
             ),
             (
                 Shape {
@@ -275,7 +301,20 @@ mod tests {
                     rough_diffuse: true,
                     ..one
                 },
+                (0..GAMMA).collect(),
+            ),
+            (
+                Shape {
+                    two_lobes: true,
+                    edge: true,
+                    rough_diffuse: true,
+                    ..Shape::one_lobe(Distribution::Gtr { gamma: 2.0 })
+                },
                 (0..P).collect(),
+            ),
+            (
+                Shape::one_lobe(Distribution::Gtr { gamma: 2.0 }),
+                (0..P_ONE).chain(GAMMA..P).collect(),
             ),
             (
                 Shape {
@@ -284,7 +323,7 @@ mod tests {
                     diffuse_only: true,
                     ..one
                 },
-                (0..3).chain(SIGMA..P).collect(),
+                (0..3).chain(SIGMA..GAMMA).collect(),
             ),
             (
                 Shape {
@@ -298,7 +337,8 @@ mod tests {
             let (active, n) = shape.active();
             assert_eq!(active[..n], expected[..], "{shape:?}");
         }
-        assert!(SHAPE.iter().all(|&i| i < P_ONE) && (P_ONE..P_COAT).contains(&COAT_SHAPE));
+        assert!(SHAPE.iter().all(|&i| i < P_ONE || i == GAMMA));
+        assert!((P_ONE..P_COAT).contains(&COAT_SHAPE));
         // A dielectric's Fresnel is the edge tint at its least: κ = 0 at a plastic's F0.
         let mut theta = [0.0; P];
         theta[3..6].fill(logit(0.04));

@@ -1302,6 +1302,7 @@ mod tests {
                 grazing_weight: None,
                 dielectric_margin: None,
                 phong_margin: None,
+                gtr_margin: None,
                 closer_margin: None,
             },
             ..MODEL

@@ -1,8 +1,8 @@
 //! The analytic baseline: Lambert plus an anisotropic microfacet lobe (GGX, and where asked
 //! Beckmann beside it, GTR with its tail exponent fitted or, from views that span θ_d,
 //! Ashikhmin and Shirley's normalisation or Blinn–Phong's implicit masking, and where asked an
-//! Oren–Nayar diffuse instead of Lambert's) fitted by Levenberg–Marquardt to the same binned samples the sparse solver sees, as tools like
-//! BRDFLab fit analytic models.
+//! Oren–Nayar diffuse instead of Lambert's) fitted by Levenberg–Marquardt to the same binned
+//! samples the sparse solver sees, as tools like BRDFLab fit analytic models.
 //!
 //! The residual of a bin is ln((ρ̂c + ε)/(ρc + ε)) per channel, weighted by the bin's pair
 //! multiplicity: the log-mapped domain and weights the basis and its solver use, so both

@@ -246,6 +246,7 @@ fn sparse_bin(pair: PairIndex, value: Option<[f32; 3]>) -> BinChange {
         before: None,
         after: value.map(|v| v.map(f64::from)),
         bounds: EXACT,
+        rounding: 0.0,
         inconsistent: false,
     }
 }

@@ -38,7 +38,7 @@ pub use render::{
 };
 pub use samples::{
     LDR_BLACK_BOUND, MIN_COS, PaintRange, Sample, SampleCounts, SampleSet, SkipReason,
-    paint_range_of, sample_pixel, sample_pixel_in, samples_from_file, samples_from_image,
-    samples_from_image_in,
+    eight_bit_log_half_step, paint_range_of, sample_pixel, sample_pixel_in, samples_from_file,
+    samples_from_image, samples_from_image_in,
 };
 pub use source::{BuiltinShape, ObjectSource};

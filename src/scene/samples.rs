@@ -3,9 +3,10 @@
 
 use super::gbuffer::GBuffer;
 use super::image_files::read_painting;
+use super::image_files::srgb_encode;
 use crate::error::Result;
 use crate::image_io::RgbImage;
-use crate::solver::{BinChange, Bound, Bounds, SampleKey, SampleRejected, SparseTable};
+use crate::solver::{BinChange, Bound, Bounds, Reading, SampleKey, SampleRejected, SparseTable};
 use crate::table::DirIndex;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -27,6 +28,34 @@ pub struct Sample {
     pub rho: [f64; 3],
     /// What each channel of `rho` says: the value, or a bound where LDR paint was clipped.
     pub bounds: Bounds,
+    /// Half the 8-bit step of LDR paint at this pixel, in ln ρ ([`Reading::rounding`]); 0
+    /// for HDR paint.
+    pub rounding: f64,
+}
+
+impl Sample {
+    /// What the sparse table keeps of it.
+    pub fn reading(&self) -> Reading {
+        Reading {
+            rho: self.rho,
+            bounds: self.bounds,
+            rounding: self.rounding,
+        }
+    }
+}
+
+/// Half the rounding step of 8-bit sRGB paint at the linear value `linear` in (0, 1], in ln of
+/// the value: half a code of the encoding, through the decoding's slope, over the value.
+/// Dark pixels are known far more coarsely than bright ones (a half step is 2% of the value
+/// at 0.03, 0.6% at 0.7).
+pub fn eight_bit_log_half_step(linear: f64) -> f64 {
+    let code = f64::from(srgb_encode(linear as f32));
+    let slope = if code <= 0.04045 {
+        1.0 / 12.92
+    } else {
+        2.4 / 1.055 * ((code + 0.055) / 1.055).powf(1.4)
+    };
+    0.5 / 255.0 * slope / linear
 }
 
 /// What a painting's pixel values can express.
@@ -152,7 +181,7 @@ impl SampleSet {
                 pixel: s.pixel,
             };
             table
-                .set_bounded_sample(key, s.light_bin, s.view_bin, s.rho, s.bounds, changes)
+                .set_reading(key, s.light_bin, s.view_bin, s.reading(), changes)
                 .map_err(|e| (s.pixel, e))?;
         }
         Ok(())
@@ -200,7 +229,24 @@ pub fn sample_pixel_in(
         view_bin,
         rho: read.map(|(c, _)| c as f64 * scale),
         bounds: read.map(|(_, b)| b),
+        rounding: match range {
+            PaintRange::Hdr => 0.0,
+            PaintRange::Ldr => eight_bit_rounding(read),
+        },
     })
+}
+
+/// The rounding of an 8-bit pixel's reading (`read`, each channel's value and bound), in
+/// ln ρ: its brightest exact channel's half step, the one known most finely, which bounds
+/// what the whole pixel says within rounding. 0 where no channel is an 8-bit value: values
+/// above 1 are HDR paint laid over the file, and exact; bounds are not values.
+fn eight_bit_rounding(read: [(f32, Bound); 3]) -> f64 {
+    let least = read
+        .iter()
+        .filter(|(c, b)| *b == Bound::Exact && *c > 0.0 && *c <= 1.0)
+        .map(|&(c, _)| eight_bit_log_half_step(f64::from(c)))
+        .fold(f64::INFINITY, f64::min);
+    if least.is_finite() { least } else { 0.0 }
 }
 
 /// The samples of a whole painting (linear RGB), rows in parallel.
@@ -290,6 +336,34 @@ mod tests {
         }
         // A white 8-bit pixel decodes to exactly 1, so it is the bound, not a value.
         assert_eq!(crate::scene::srgb_decode(1.0), 1.0);
+    }
+
+    /// Half a step is half the gap between neighbouring 8-bit codes, relative to the value:
+    /// coarse for dark paint, fine for bright. A pixel's rounding is its brightest 8-bit
+    /// value's; HDR paint over the file and bounds have none.
+    #[test]
+    fn an_8_bit_value_is_known_to_half_its_step_and_hdr_paint_exactly() {
+        for code in [3u8, 20, 60, 128, 200, 254] {
+            let at = |c: f64| f64::from(crate::scene::srgb_decode((c / 255.0) as f32));
+            let value = at(f64::from(code));
+            let gap = (at(f64::from(code) + 0.5) - at(f64::from(code) - 0.5)) / value;
+            let half = eight_bit_log_half_step(value);
+            assert!(
+                (half - 0.5 * gap).abs() < 0.02 * half,
+                "{code}: {half} {gap}"
+            );
+        }
+        assert!(eight_bit_log_half_step(0.03) > 3.0 * eight_bit_log_half_step(0.7));
+
+        let ldr = PaintRange::Ldr;
+        let read = [0.03, 0.7, 0.2].map(|c| ldr.read(c));
+        let half_step = |c: f32| eight_bit_log_half_step(f64::from(c));
+        assert_eq!(eight_bit_rounding(read), half_step(0.7));
+        // A clipped channel is a bound, and paint above 1 is exact HDR paint.
+        let read = [1.0, 0.03, 2.5].map(|c| ldr.read(c));
+        assert_eq!(eight_bit_rounding(read), half_step(0.03));
+        let read = [1.0, 0.0, 2.5].map(|c| ldr.read(c));
+        assert_eq!(eight_bit_rounding(read), 0.0);
     }
 
     #[test]

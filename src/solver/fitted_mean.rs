@@ -25,10 +25,9 @@
 //! the command line reach the same reference from the same bins.
 
 use super::analytic_fit::{
-    FitOptions, LambertMicrofacet, Prepared, fit_lambert_microfacet_bounded,
+    FitOptions, LambertMicrofacet, PaintedBin, Prepared, fit_lambert_microfacet_painted,
 };
 use super::prior::PriorMean;
-use super::sparse::Bounds;
 use crate::basis::Basis;
 use crate::materials::tabulate;
 use crate::table::{PAIRS, PairIndex};
@@ -46,7 +45,7 @@ const OFFSET_LIMIT: f32 = 40.0;
 pub struct MeanFitRequest {
     /// The solver's generation of painted bins this request was made for.
     pub generation: u64,
-    pub(super) bins: Vec<(PairIndex, [f64; 3], Bounds)>,
+    pub(super) bins: Vec<PaintedBin>,
     pub(super) basis: Arc<Basis>,
     /// The lobe shapes the fit tries ([`super::PriorMean::Fitted`]'s choice).
     pub(super) options: FitOptions,
@@ -144,7 +143,7 @@ impl MeanFitRequest {
 
     /// Fits the model and tabulates it. Deterministic for given bins, whatever the threads.
     pub fn run(self) -> FittedMean {
-        let fit = fit_lambert_microfacet_bounded(&self.bins, &self.options);
+        let fit = fit_lambert_microfacet_painted(&self.bins, &self.options);
         FittedMean {
             generation: self.generation,
             reference: Arc::new(FittedReference::new(self.basis, fit.model)),

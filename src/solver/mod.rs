@@ -18,7 +18,9 @@ pub use prior::{
 };
 pub use reconstruction::Reconstruction;
 pub use ridge::{Posterior, Solution, Solver};
-pub use sparse::{BinChange, Bound, Bounds, EXACT, Policy, SampleKey, SampleRejected, SparseTable};
+pub use sparse::{
+    BinChange, Bound, Bounds, EXACT, Policy, Reading, SampleKey, SampleRejected, SparseTable,
+};
 
 /// Runs faer's dense algorithms (the solver's factorisations and eigenvalues, the basis
 /// build's small SVD) on the calling thread, once per process. Its default, rayon with

@@ -79,8 +79,36 @@ pub struct BinChange {
     pub before: Option<[f64; 3]>,
     pub after: Option<[f64; 3]>,
     pub bounds: Bounds,
+    /// How finely `after`'s exact channels are known, in ln ρ: half the rounding step of the
+    /// 8-bit paint every sample of the bin came from, the least over them; 0 where any sample
+    /// is exact (HDR paint, the app's canvas) or the bin is empty. See [`Reading::rounding`].
+    pub rounding: f64,
     /// Whether the bin's samples now disagree beyond the inconsistency factor.
     pub inconsistent: bool,
+}
+
+/// What one painted pixel says of ρ: its value, what each channel's value means, and how
+/// finely 8-bit paint knows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reading {
+    /// ρ in 1/sr, linear RGB.
+    pub rho: [f64; 3],
+    pub bounds: Bounds,
+    /// Half the rounding step of the paint at this value, in ln ρ (0: exact). An 8-bit pixel
+    /// is any value within half a step of its own; a change of ρ smaller than that is one
+    /// the paint cannot show.
+    pub rounding: f64,
+}
+
+impl Reading {
+    /// An exact value (HDR paint) or bounds, with no rounding.
+    pub fn exact(rho: [f64; 3], bounds: Bounds) -> Self {
+        Self {
+            rho,
+            bounds,
+            rounding: 0.0,
+        }
+    }
 }
 
 impl BinChange {
@@ -92,6 +120,7 @@ impl BinChange {
             before: None,
             after: Some(after),
             bounds,
+            rounding: 0.0,
             inconsistent: false,
         }
     }
@@ -108,6 +137,7 @@ impl BinChange {
             }
             first.after = later.after;
             first.bounds = later.bounds;
+            first.rounding = later.rounding;
             first.inconsistent = later.inconsistent;
             true
         });
@@ -130,6 +160,7 @@ struct Held {
     key: SampleKey,
     rho: [f64; 3],
     bounds: Bounds,
+    rounding: f64,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -138,6 +169,8 @@ struct Bin {
     samples: Vec<Held>,
     value: [f64; 3],
     bounds: Bounds,
+    /// The least rounding of its samples ([`BinChange::rounding`]).
+    rounding: f64,
     /// Kept with the value, so that counting and reporting inconsistent bins never rescans.
     inconsistent: bool,
 }
@@ -159,6 +192,14 @@ impl Bin {
                 Bound::Exact
             }
         })
+    }
+
+    /// The rounding of the bin's value: its samples' least, so 0 as soon as one is exact.
+    fn aggregate_rounding(&self) -> f64 {
+        self.samples
+            .iter()
+            .map(|s| s.rounding)
+            .fold(f64::INFINITY, f64::min)
     }
 
     fn aggregate(&self, policy: Policy) -> [f64; 3] {
@@ -264,6 +305,7 @@ impl SparseTable {
                     before: Some(bin.value),
                     after: Some(bin.value),
                     bounds: bin.bounds,
+                    rounding: bin.rounding,
                     inconsistent,
                 });
             }
@@ -293,6 +335,15 @@ impl SparseTable {
     /// Observed bins with their values and what each channel's value means, in pair order.
     pub fn observed_bounded(&self) -> impl Iterator<Item = (PairIndex, [f64; 3], Bounds)> + '_ {
         self.bins.iter().map(|(&p, b)| (p, b.value, b.bounds))
+    }
+
+    /// Every observed bin as a change from nothing, bounds and rounding included: what a new
+    /// solver applies to catch up with the table.
+    pub fn observed_changes(&self) -> impl Iterator<Item = BinChange> + '_ {
+        self.bins.iter().map(|(&pair, b)| BinChange {
+            rounding: b.rounding,
+            ..BinChange::observed(pair, b.value, b.bounds)
+        })
     }
 
     /// Number of samples in the bin of `pair`.
@@ -340,6 +391,23 @@ impl SparseTable {
         bounds: Bounds,
         changes: &mut Vec<BinChange>,
     ) -> Result<(), SampleRejected> {
+        self.set_reading(key, d_l, d_v, Reading::exact(rho, bounds), changes)
+    }
+
+    /// [`Self::set_sample`] for a pixel's whole reading: its value, bounds and rounding.
+    pub fn set_reading(
+        &mut self,
+        key: SampleKey,
+        d_l: DirIndex,
+        d_v: DirIndex,
+        reading: Reading,
+        changes: &mut Vec<BinChange>,
+    ) -> Result<(), SampleRejected> {
+        let Reading {
+            rho,
+            bounds,
+            rounding,
+        } = reading;
         if rho.iter().any(|c| !c.is_finite()) {
             return Err(SampleRejected::NotFinite);
         }
@@ -355,7 +423,17 @@ impl SparseTable {
             }
             _ => {}
         }
-        let held = Held { key, rho, bounds };
+        let held = Held {
+            key,
+            rho,
+            bounds,
+            // Never negative nor NaN: a rounding only ever widens what counts as unseen.
+            rounding: if rounding.is_finite() && rounding > 0.0 {
+                rounding
+            } else {
+                0.0
+            },
+        };
         self.edit_bin(pair, changes, |samples| {
             match samples.binary_search_by_key(&key, |h| h.key) {
                 Ok(i) => samples[i] = held,
@@ -400,6 +478,7 @@ impl SparseTable {
                     before: Some(bin.value),
                     after: Some(value),
                     bounds: bin.bounds,
+                    rounding: bin.rounding,
                     inconsistent: bin.inconsistent,
                 });
                 bin.value = value;
@@ -414,7 +493,7 @@ impl SparseTable {
         edit: impl FnOnce(&mut Vec<Held>),
     ) {
         let bin = self.bins.entry(pair).or_default();
-        let before = (!bin.samples.is_empty()).then_some((bin.value, bin.bounds));
+        let before = (!bin.samples.is_empty()).then_some((bin.value, bin.bounds, bin.rounding));
         let was_inconsistent = bin.inconsistent;
         edit(&mut bin.samples);
         let (after, inconsistent) = if bin.samples.is_empty() {
@@ -423,8 +502,12 @@ impl SparseTable {
         } else {
             bin.value = bin.aggregate(self.policy);
             bin.bounds = bin.aggregate_bounds();
+            bin.rounding = bin.aggregate_rounding();
             bin.inconsistent = bin.disagrees(self.inconsistency_ratio);
-            (Some((bin.value, bin.bounds)), bin.inconsistent)
+            (
+                Some((bin.value, bin.bounds, bin.rounding)),
+                bin.inconsistent,
+            )
         };
         match (was_inconsistent, inconsistent) {
             (false, true) => self.inconsistent += 1,
@@ -435,9 +518,10 @@ impl SparseTable {
         if before != after || was_inconsistent != inconsistent {
             changes.push(BinChange {
                 pair,
-                before: before.map(|(v, _)| v),
-                after: after.map(|(v, _)| v),
-                bounds: after.map_or(EXACT, |(_, b)| b),
+                before: before.map(|(v, _, _)| v),
+                after: after.map(|(v, _, _)| v),
+                bounds: after.map_or(EXACT, |(_, b, _)| b),
+                rounding: after.map_or(0.0, |(_, _, r)| r),
                 inconsistent,
             });
         }
@@ -572,6 +656,40 @@ mod tests {
         t.set_sample(key(0), 5, 6, [1.0; 3], &mut ch).unwrap();
         assert_eq!(t.observed_count(), 1);
         assert_eq!(t.bin_value(pair_index(1, 2)), None);
+    }
+
+    /// A bin's rounding is its samples' least: 8-bit paint's half step until an exact sample
+    /// joins. It is reported with the bin's change, and kept for a new solver.
+    #[test]
+    fn a_bins_rounding_is_its_finest_samples() {
+        let mut t = SparseTable::default();
+        let mut ch = Vec::new();
+        let reading = |rounding| Reading {
+            rho: [0.2; 3],
+            bounds: EXACT,
+            rounding,
+        };
+        t.set_reading(key(1), 4, 40, reading(0.02), &mut ch)
+            .unwrap();
+        assert_eq!(ch.last().unwrap().rounding, 0.02);
+        t.set_reading(key(2), 40, 4, reading(0.005), &mut ch)
+            .unwrap();
+        assert_eq!(ch.last().unwrap().rounding, 0.005);
+        let kept: Vec<BinChange> = t.observed_changes().collect();
+        assert_eq!(kept.len(), 1);
+        assert_eq!(kept[0].rounding, 0.005);
+        assert_eq!(kept[0].after, Some([0.2; 3]));
+        // The value alone is unchanged, the rounding is not: still a change.
+        t.set_sample(key(3), 4, 40, [0.2; 3], &mut ch).unwrap();
+        assert_eq!(ch.last().unwrap().rounding, 0.0);
+        t.remove_sample(key(3), &mut ch);
+        assert_eq!(ch.last().unwrap().rounding, 0.005);
+        // Nonsense roundings widen nothing.
+        t.set_reading(key(1), 4, 40, reading(f64::NAN), &mut ch)
+            .unwrap();
+        t.set_reading(key(2), 40, 4, reading(-1.0), &mut ch)
+            .unwrap();
+        assert_eq!(ch.last().unwrap().rounding, 0.0);
     }
 
     /// A bin's bounds: "at least" as soon as one sample is clipped at the top, "at most" only

@@ -712,11 +712,7 @@ impl WorkerState {
         if let Some(material) = &self.start_material {
             solver.set_prior_mean(Some(OracleProjector::new(basis).project(material)));
         }
-        let existing: Vec<BinChange> = self
-            .sparse
-            .observed_bounded()
-            .map(|(pair, value, bounds)| BinChange::observed(pair, value, bounds))
-            .collect();
+        let existing: Vec<BinChange> = self.sparse.observed_changes().collect();
         solver.apply_all(&existing);
         solver.rebuild();
         self.solver = Some(solver);
@@ -813,12 +809,11 @@ fn set_pixel(
     match sample {
         Some(sample) => {
             if sparse
-                .set_bounded_sample(
+                .set_reading(
                     key,
                     sample.light_bin,
                     sample.view_bin,
-                    sample.rho,
-                    sample.bounds,
+                    sample.reading(),
                     changes,
                 )
                 .is_err()

@@ -496,6 +496,7 @@ mod tests {
                     c,
                     sqrt_weight: 1.0 + (p % 3) as f64,
                     bounds,
+                    rounding: [0.0; 3],
                 }
             })
             .collect()
@@ -626,6 +627,7 @@ mod tests {
             c: 0.5,
             sqrt_weight: 3.0,
             bounds: [bound; 3],
+            rounding: [0.0; 3],
         };
         // ρc + ε above and below the target 0.5.
         let above_target = (0.8 - MAP_EPSILON) / 0.5;

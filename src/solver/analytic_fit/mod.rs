@@ -51,6 +51,9 @@ struct Observation {
     pub(super) c: f64,
     pub(super) sqrt_weight: f64,
     pub(super) bounds: Bounds,
+    /// How far `target` may be from the paint's own value per channel, by 8-bit rounding
+    /// alone (0: exact).
+    pub(super) rounding: [f64; 3],
 }
 
 /// How hard the fit tries, and which lobe shapes it tries.
@@ -158,29 +161,61 @@ pub fn fit_lambert_microfacet(bins: &[(PairIndex, [f64; 3])], options: &FitOptio
     fit_lambert_microfacet_bounded(&bins, options)
 }
 
-/// [`fit_lambert_microfacet`] on bins whose channels may be bounds (as the solver holds them).
+/// One painted bin as the solver holds it: its value, what each channel's value means, and
+/// how finely 8-bit paint knows it ([`crate::solver::BinChange::rounding`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PaintedBin {
+    pub pair: PairIndex,
+    pub rho: [f64; 3],
+    pub bounds: Bounds,
+    pub rounding: f64,
+}
+
+/// [`fit_lambert_microfacet`] on bins whose channels may be bounds, with no rounding.
+pub fn fit_lambert_microfacet_bounded(
+    bins: &[(PairIndex, [f64; 3], Bounds)],
+    options: &FitOptions,
+) -> FitResult {
+    fit_lambert_microfacet_painted(&unrounded(bins), options)
+}
+
+/// Bins `(pair, ρ, bounds)` as exact paint's: no rounding.
+fn unrounded(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<PaintedBin> {
+    bins.iter()
+        .map(|&(pair, rho, bounds)| PaintedBin {
+            pair,
+            rho,
+            bounds,
+            rounding: 0.0,
+        })
+        .collect()
+}
+
+/// [`fit_lambert_microfacet`] on bins as the solver holds them: channels may be bounds, and
+/// values from 8-bit paint are known only to within their rounding.
 ///
 /// Why Beckmann beside GGX: fitted with GGX alone, a lobe with Gaussian tails (Beckmann,
 /// Blinn–Phong, Ward, Ashikhmin–Shirley) takes a narrower, taller GGX peak whose extrapolation
 /// overshoots where the peak is clipped or unpainted. With [`FitOptions::beckmann_margin`]
 /// both shapes are fitted, and Beckmann is kept only where it beats GGX by the margin both in
 /// the log residual and in the brightness-weighted one.
-pub fn fit_lambert_microfacet_bounded(
-    bins: &[(PairIndex, [f64; 3], Bounds)],
-    options: &FitOptions,
-) -> FitResult {
+pub fn fit_lambert_microfacet_painted(bins: &[PaintedBin], options: &FitOptions) -> FitResult {
     let observations: Vec<Observation> = bins
         .iter()
-        .map(|&(pair, rho, bounds)| {
-            let (lo, hi) = pair_directions(pair);
-            let c = cos_weight(pair);
+        .map(|bin| {
+            let (lo, hi) = pair_directions(bin.pair);
+            let c = cos_weight(bin.pair);
+            let mapped = bin.rho.map(|r| r.max(0.0) * c);
             Observation {
                 l: bin_centre(lo),
                 v: bin_centre(hi),
-                target: rho.map(|r| (r.max(0.0) * c + MAP_EPSILON).ln()),
+                target: mapped.map(|m| (m + MAP_EPSILON).ln()),
                 c,
-                sqrt_weight: pair_multiplicity(pair).sqrt(),
-                bounds,
+                sqrt_weight: pair_multiplicity(bin.pair).sqrt(),
+                bounds: bin.bounds,
+                // In the fit's own mapping ln(ρc + ε), where ε flattens a dark value's
+                // rounding.
+                rounding: mapped.map(|m| bin.rounding * m / (m + MAP_EPSILON)),
             }
         })
         .collect();
@@ -552,6 +587,14 @@ const GRAZING_HIDDEN_CHANGE: f64 = 1e-3;
 /// changes than a thousandth; a tenth, so that the bound stays well inside the scatter.
 const GRAZING_HIDDEN_SHARE: f64 = 0.1;
 
+/// The share of an 8-bit bin's rounding (half its step, [`Observation::rounding`]) within
+/// which [`with_the_grazing_weight`] may also move its log ρ: a change the paint's own
+/// rounding swallows. Dark 8-bit paint is known to a few percent, where the hidden-change
+/// bound is a thousandth: a dark principled material's 8-bit view (F0 0.0016) kept s 0.22
+/// where a change of 0.15 of its rounding would have taken 0.98 (one view 0.734 → 0.125, its
+/// HDR view's 0.133; see `PriorMean::FITTED`).
+const GRAZING_ROUNDING_SHARE: f64 = 1.0;
+
 /// The least F0 [`with_the_grazing_weight`] gives a lobe: a thousandth, a twentieth of
 /// water's (η 1.33). Renderers' principled materials go below water (F0 = 0.08 × their
 /// specular parameter): a dark one of F0 0.0016 was held at s 0.08 by water's floor and
@@ -562,7 +605,8 @@ const GRAZING_F0_MIN: f64 = 1e-3;
 /// The fit with its lobe's specular weight s raised toward `weight`, s·F0 per channel kept,
 /// as far as the paint cannot tell: the fit's RMS log residual stays within
 /// [`GRAZING_RMS_RELATIVE`] of itself, or no painted bin's log ρ moves by more than
-/// [`GRAZING_HIDDEN_CHANGE`] (and [`GRAZING_HIDDEN_SHARE`] of that residual).
+/// [`GRAZING_HIDDEN_CHANGE`] (and [`GRAZING_HIDDEN_SHARE`] of that residual), nor, at a bin of
+/// 8-bit paint, by more than its rounding ([`GRAZING_ROUNDING_SHARE`]) where that is more.
 ///
 /// The paint shows s·F0, the lobe's reflectance at normal incidence; s alone is its
 /// reflectance at grazing incidence, which only Schlick's rise s·(1 − F0)(1 − cos θ_d)⁵ tells,
@@ -602,7 +646,7 @@ fn with_the_grazing_weight(observations: &[Observation], fit: ShapeFit, weight: 
         let moved_cost = cost(observations, &theta, fit.shape);
         let unseen = || {
             let after = log_rho(observations, &Prepared::new(model_of(&theta, fit.shape)));
-            largest_difference(&before, &after) <= hidden
+            hidden_at_every_bin(observations, &before, &after, hidden)
         };
         (rms_log(observations, moved_cost) <= allowed || unseen()).then_some((theta, moved_cost))
     };
@@ -641,11 +685,23 @@ fn log_rho(observations: &[Observation], model: &Prepared) -> Vec<[f64; 3]> {
 }
 
 /// The largest difference between two [`log_rho`]s, over bins and channels.
-fn largest_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(a, b)| (0..3).map(move |ch| (a[ch] - b[ch]).abs()))
-        .fold(0.0, f64::max)
+/// Whether no painted bin's log ρ moves from `before` to `after` by more than the paint can
+/// show: `hidden`, or at an 8-bit bin [`GRAZING_ROUNDING_SHARE`] of its rounding where that is
+/// more.
+fn hidden_at_every_bin(
+    observations: &[Observation],
+    before: &[[f64; 3]],
+    after: &[[f64; 3]],
+    hidden: f64,
+) -> bool {
+    observations
+        .iter()
+        .zip(before.iter().zip(after))
+        .all(|(o, (b, a))| {
+            (0..3).all(|ch| {
+                (a[ch] - b[ch]).abs() <= hidden.max(GRAZING_ROUNDING_SHARE * o.rounding[ch])
+            })
+        })
 }
 
 /// How well a fit follows the paint: over every bin in the log domain (the fit's own
@@ -848,11 +904,11 @@ fn brightness_weighted_rms(observations: &[Observation], model: &LambertMicrofac
 
 /// Starting points: the albedo from the darker bins, the F0 of a dielectric and of a metal,
 /// four isotropic roughnesses and anisotropic ones at four orientations.
-fn starting_points(bins: &[(PairIndex, [f64; 3], Bounds)]) -> Vec<Params> {
+fn starting_points(bins: &[PaintedBin]) -> Vec<Params> {
     let albedo: [f64; 3] = std::array::from_fn(|c| {
         let mut v: Vec<f64> = bins
             .iter()
-            .map(|(_, rho, _)| rho[c] * std::f64::consts::PI)
+            .map(|bin| bin.rho[c] * std::f64::consts::PI)
             .collect();
         if v.is_empty() {
             return 0.5;
@@ -1207,6 +1263,7 @@ mod tests {
                     c: 1.0,
                     sqrt_weight: 1.0,
                     bounds: EXACT,
+                    rounding: [0.0; 3],
                 })
                 .collect();
             theta_d_spread(&observations)
@@ -1229,6 +1286,7 @@ mod tests {
                     c: 1.0,
                     sqrt_weight: 1.0,
                     bounds: EXACT,
+                    rounding: [0.0; 3],
                 }
             })
             .collect();
@@ -1918,6 +1976,55 @@ mod tests {
         assert!(off(&fit, &schlick).abs() < 0.12, "{fit:?}");
     }
 
+    /// A dark lobe (s·F0 0.0016, a principled material's at specular 0.02) from one view:
+    /// raising its weight from 0.02 to 0.98, s·F0 kept, changes its Schlick rise at θ_d
+    /// 20–25° by half a percent of so small an F0, which exact paint shows and 8-bit paint's
+    /// rounding (a few percent at such dark values) swallows. Exact paint of a weight of 0.02
+    /// keeps most of it; the same paint from 8-bit lets the prior's full weight in, s·F0 kept.
+    #[test]
+    fn eight_bit_rounding_hides_a_dark_lobes_grazing_weight() {
+        let truth = LambertMicrofacet {
+            albedo: [0.02, 0.03, 0.025],
+            sigma: 0.0,
+            f0: [0.08; 3],
+            specular: 0.02,
+            distribution: Distribution::Ggx,
+            alpha_x: 0.14,
+            alpha_y: 0.14,
+            rotation: 0.0,
+            coat: None,
+            haze: None,
+            edge: None,
+        };
+        let bins = exact_paint(&truth, 2, &[20.0..25.0]);
+        let shape = Shape::one_lobe(Distribution::Ggx);
+        let theta = params_of(&truth);
+        let moved_by = |rounding: f64| {
+            let observations: Vec<Observation> = observations_of(&bins)
+                .into_iter()
+                .map(|o| Observation {
+                    rounding: [rounding; 3],
+                    ..o
+                })
+                .collect();
+            let start = ShapeFit {
+                theta,
+                cost: cost(&observations, &theta, shape),
+                iterations: 0,
+                shape,
+            };
+            with_the_grazing_weight(&observations, start, 0.98).model()
+        };
+        let product = |m: &LambertMicrofacet| m.specular * m.f0[0];
+
+        let exact = moved_by(0.0);
+        assert!(exact.specular < 0.5, "{exact:?}");
+        // Half an 8-bit step at a linear value of 0.03, in ln ρ.
+        let eight_bit = moved_by(crate::scene::eight_bit_log_half_step(0.03));
+        assert!(eight_bit.specular >= 0.97, "{eight_bit:?}");
+        assert!((product(&eight_bit) - 0.0016).abs() < 1e-9, "{eight_bit:?}");
+    }
+
     /// Paint at half-difference angles under 8° shows a lobe's s·F0 and not its Schlick rise:
     /// the fit takes the full weight there, F0 a real surface's, and keeps the weight the rise
     /// shows once grazing θ_d are painted too (the paint then spans θ_d, and the weight is
@@ -2249,6 +2356,7 @@ mod tests {
                     c,
                     sqrt_weight: pair_multiplicity(pair).sqrt(),
                     bounds,
+                    rounding: [0.0; 3],
                 }
             })
             .collect()
@@ -2327,7 +2435,7 @@ mod tests {
                 (PairIndex::from_index(i), [v, 2.0 * v, 100.0 * v], EXACT)
             })
             .collect();
-        let starts = starting_points(&bins);
+        let starts = starting_points(&unrounded(&bins));
         assert_eq!(starts.len(), 14);
         // The 20th percentile of ρπ: the third darkest of ten, clamped to [0.01, 0.95].
         let pi = std::f64::consts::PI;
@@ -2487,7 +2595,7 @@ mod tests {
             let fit = fit_lambert_microfacet_bounded(&bins, &both);
             assert_eq!(fit.model.distribution, distribution);
             let observations = observations_of(&bins);
-            let starts = starting_points(&bins);
+            let starts = starting_points(&unrounded(&bins));
             let beckmann = fit_shape(
                 &observations,
                 &starts,
@@ -2610,7 +2718,7 @@ mod tests {
             let alone = fit_lambert_microfacet_bounded(&bins, &one_lobe);
             let fit = fit_lambert_microfacet_bounded(&bins, &coated);
             let observations = observations_of(&bins);
-            let starts = starting_points(&bins);
+            let starts = starting_points(&unrounded(&bins));
             let first = fit_shape(
                 &observations,
                 &starts,
@@ -2716,7 +2824,7 @@ mod tests {
             let bins = exact_bins(&truth, 2_003);
             let fit = fit_lambert_microfacet_bounded(&bins, &options);
             let observations = observations_of(&bins);
-            let starts = starting_points(&bins);
+            let starts = starting_points(&unrounded(&bins));
             let one_lobe: Vec<ShapeFit> = [Distribution::Ggx, Distribution::Beckmann]
                 .into_iter()
                 .map(|d| fit_shape(&observations, &starts, Shape::one_lobe(d), &options))
@@ -2793,7 +2901,7 @@ mod tests {
             let bins = wobbled(bins);
             let fit = fit_lambert_microfacet_bounded(&bins, &options);
             let observations = observations_of(&bins);
-            let starts = starting_points(&bins);
+            let starts = starting_points(&unrounded(&bins));
             let schlick = fit_shape(
                 &observations,
                 &starts,

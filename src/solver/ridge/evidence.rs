@@ -439,6 +439,7 @@ mod tests {
                 brightness: 0.0,
                 weight,
                 bounds: EXACT,
+                rounding: 0.0,
             };
             solver.observed.insert(PairIndex::from_index(i), obs);
         }

@@ -64,6 +64,7 @@
 //! reference is pulled down to a value the paint never gave. An upper bound that maps to a
 //! narrow interval (a black 8-bit pixel) counts as a value instead (`Solver::pin_narrow_bounds`).
 
+use super::analytic_fit::PaintedBin;
 use super::bands::{BANDS, BandWeights};
 use super::condition::{CONDITION_LIMIT, bounded_condition, inverse_norm_1_estimate, norm_1};
 use super::fitted_mean::{FittedMean, FittedReference, MeanFitRequest, fit_options};
@@ -127,6 +128,8 @@ struct Observed {
     weight: f64,
     /// Channels whose `y` is only a bound (clipped LDR paint).
     bounds: Bounds,
+    /// How finely 8-bit paint knows `rho` ([`BinChange::rounding`]), for the fit.
+    rounding: f64,
 }
 
 /// The incremental solver. Deterministic: its state depends on the set of observed bins
@@ -306,7 +309,12 @@ impl Solver {
             bins: self
                 .observed
                 .iter()
-                .map(|(&pair, obs)| (pair, obs.rho, obs.bounds))
+                .map(|(&pair, obs)| PaintedBin {
+                    pair,
+                    rho: obs.rho,
+                    bounds: obs.bounds,
+                    rounding: obs.rounding,
+                })
                 .collect(),
             basis: self.basis.clone(),
             options: fit_options(self.model.mean),
@@ -463,6 +471,7 @@ impl Solver {
                     obs.rho = rho;
                     obs.brightness = brightness;
                     obs.bounds = bounds;
+                    obs.rounding = change.rounding;
                     self.observed.insert(pair, obs);
                 } else {
                     let row: Box<[f64]> = self.basis.row(pair).iter().map(|&u| u as f64).collect();
@@ -474,6 +483,7 @@ impl Solver {
                         brightness,
                         weight,
                         bounds,
+                        rounding: change.rounding,
                     };
                     self.accumulate(&obs, 1.0, d);
                     self.brightness_sum += brightness;
@@ -991,6 +1001,7 @@ mod tests {
                     before: None,
                     after: None,
                     bounds: EXACT,
+                    rounding: 0.0,
                     inconsistent: false,
                 },
                 4 => {
@@ -1024,6 +1035,7 @@ mod tests {
                 before: None,
                 after: None,
                 bounds: EXACT,
+                rounding: 0.0,
                 inconsistent: false,
             });
             assert_holds(&solver, &bins, &format!("erasing {pair}"));
@@ -1377,6 +1389,7 @@ mod tests {
                 before: None,
                 after: None,
                 bounds: EXACT,
+                rounding: 0.0,
                 inconsistent: false,
             });
         }

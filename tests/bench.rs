@@ -15,7 +15,7 @@ use burnish::materials::tabulate;
 use burnish::metrics::table_errors;
 use burnish::scene::{GBuffer, Object, render_brdf, render_table, samples_from_image};
 use burnish::solver::analytic_fit::{
-    Coat, Distribution, FitOptions, LambertMicrofacet, fit_lambert_microfacet,
+    Coat, Distribution, FitOptions, LambertMicrofacet, Masking, fit_lambert_microfacet,
 };
 use burnish::solver::{Policy, Reconstruction, Regularization, SampleKey, Solver, SparseTable};
 use burnish::table::{PairIndex, SymTable, pair_multiplicity};
@@ -60,6 +60,7 @@ fn levenberg_marquardt_recovers_a_lambert_ggx_material_from_noise_free_samples()
         coat: None,
         haze: None,
         edge: None,
+        masking: Masking::Smith,
     };
     let truth = tabulate(&truth_model);
     // Rendered from the table, each sample is exactly the bin-centre value: noise-free.
@@ -116,6 +117,7 @@ fn the_fit_tells_a_beckmann_lobe_from_a_ggx_lobe() {
             coat: None,
             haze: None,
             edge: None,
+            masking: Masking::Smith,
         };
         let truth = tabulate(&truth_model);
         let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
@@ -157,6 +159,7 @@ fn the_fit_finds_a_clear_coat_only_where_there_is_one() {
         }),
         haze: None,
         edge: None,
+        masking: Masking::Smith,
     };
     let truth = tabulate(&coated);
     let (table, _) = painted_table(2, 128, |g| render_table(g, &truth));
@@ -329,6 +332,7 @@ fn a_tiny_run_writes_every_output_and_the_required_json_keys() {
             dielectric_margin: None,
             phong_margin: None,
             gtr_margin: None,
+            cavity_margin: None,
         },
         live: LiveOptions {
             dab_pixels: vec![50, 500],

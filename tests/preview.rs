@@ -328,7 +328,7 @@ fn reconstruction_mode_matches_the_materialised_table() {
 #[test]
 fn a_fitted_reference_moves_the_gpu_evaluation_as_it_moves_the_engine() {
     use burnish::solver::FittedReference;
-    use burnish::solver::analytic_fit::{Distribution, LambertMicrofacet};
+    use burnish::solver::analytic_fit::{Distribution, LambertMicrofacet, Masking};
     let gpu = gpu();
     let basis = common::small_basis(8);
     let mut r = renderer(&gpu);
@@ -347,6 +347,7 @@ fn a_fitted_reference_moves_the_gpu_evaluation_as_it_moves_the_engine() {
         coat: None,
         haze: None,
         edge: None,
+        masking: Masking::Smith,
     };
     let reference = std::sync::Arc::new(FittedReference::new(basis.clone(), model));
     let plain = Reconstruction::new(basis.clone(), &x).materialize();

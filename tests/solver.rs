@@ -473,7 +473,7 @@ fn the_band_correlation_tightens_only_for_agreeing_bins_spread_over_theta_d() {
 #[test]
 fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
     use burnish::metrics::table_errors;
-    use burnish::solver::analytic_fit::{Distribution, LambertMicrofacet};
+    use burnish::solver::analytic_fit::{Distribution, LambertMicrofacet, Masking};
     use burnish::solver::{PriorMean, PriorModel};
 
     let basis = small_basis(20);
@@ -489,6 +489,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         coat: None,
         haze: None,
         edge: None,
+        masking: Masking::Smith,
     };
     let truth = burnish::materials::tabulate(&truth_brdf);
     let mut table = SparseTable::new(Policy::Mean);
@@ -530,6 +531,7 @@ fn the_fitted_prior_mean_follows_the_paint_and_only_the_bins_it_saw() {
         phong_margin: None,
         gtr_margin: None,
         closer_margin: None,
+        cavity_margin: None,
     };
     let mut fitted = Solver::with_model(basis.clone(), Regularization::Auto, model(always));
     fitted.apply_all(&changes);

@@ -433,6 +433,7 @@ fn a_sync_waits_for_the_prior_mean_fitted_to_the_paint() {
         phong_margin: None,
         gtr_margin: None,
         closer_margin: None,
+        cavity_margin: None,
     };
     let worker = Worker::spawn(Policy::Mean, Regularization::Auto);
     worker.send(Command::SetPriorMean(always));

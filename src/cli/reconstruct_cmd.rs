@@ -119,7 +119,10 @@ pub struct ReconstructArgs {
     /// fits better by the factor R), +gtr or +gtr:R (GTR's tails: Burley's generalised
     /// Trowbridge–Reitz lobe with its exponent fitted, from long tails through GGX's to a
     /// core tighter than Beckmann's, tried from the GGX and Beckmann fits, kept where it fits
-    /// better by the factor R), and
+    /// better by the factor R), +cavity or +cavity:R (Cook and Torrance's V-cavity masking
+    /// instead of Smith's, which part most at the grazing mirror no view paints, tried where
+    /// the fit's lobe is GGX's, Beckmann's or GTR's and the views span θ_d over 10°, kept
+    /// where it fits better by the factor R), and
     /// +rough or +rough:R (an Oren–Nayar diffuse of fitted slope under the chosen lobe,
     /// kept where it fits better by the factor R), and +grazing:S (the lobe's specular
     /// weight, its reflectance at grazing incidence, raised toward S where the paint cannot
@@ -127,7 +130,7 @@ pub struct ReconstructArgs {
     /// cannot tell which a painting means), and +closer:R (the fit also taken, whatever the
     /// evidence, where it explains the paint R times as closely as the database's mean
     /// does). The default,
-    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+grazing:0.98+dielectric:1.1+phong:1.1+gtr:1.5+closer:3, is
+    /// fitted:3+beckmann+edge:1.5+haze:1.5+rough:1.2+grazing:0.98+dielectric:1.1+phong:1.1+gtr:1.5+cavity:1.5+closer:3, is
     /// what `burnish calibrate` and the bench chose (the dielectric's margin on hand-built
     /// materials: the calibration's dielectrics all have Schlick's Fresnel).
     #[arg(long, default_value_t = PriorModel::CALIBRATED.mean)]

@@ -8,7 +8,7 @@
 //! horizon, and guarded at grazing angles.
 
 use super::Brdf;
-use super::models::{Distribution, Fresnel, above, cos_half_difference, scale3};
+use super::models::{Distribution, Fresnel, above, cos_half_difference, scale3, v_cavity_masking};
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};
 
@@ -136,8 +136,7 @@ impl Brdf for CookTorrance {
         let h = (l + v).normalize();
         let vh = cos_half_difference(l, v).max(MIN_COS);
         let d = self.distribution.isotropic_d(h.z, self.alpha.max(1e-4));
-        // min over l and v of the same expression: symmetric.
-        let g = (2.0 * h.z * l.z.min(v.z) / vh).min(1.0);
+        let g = v_cavity_masking(l, v);
         let spec = d * g / (4.0 * l.z.max(MIN_COS) * v.z.max(MIN_COS));
         let f = self.fresnel.eval(vh);
         [0, 1, 2].map(|c| self.diffuse[c] * FRAC_1_PI + self.tint[c] * f[c] * spec)

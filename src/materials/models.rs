@@ -207,6 +207,28 @@ impl Fresnel {
     }
 }
 
+/// How a microfacet lobe's facets mask and shadow each other: the G₂ of its
+/// D·F·G₂/(4 cos θ_l cos θ_v). The two part where no view paints: at the grazing mirror
+/// Smith's falls toward 0 with the lobe's roughness, where a V-cavity's stays 1.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Masking {
+    /// Smith's height-correlated G₂ = 1/(1 + Λ(l) + Λ(v)) of the lobe's own distribution.
+    #[default]
+    Smith,
+    /// Cook and Torrance's V-cavities, G = min(1, 2(n·h) min(n·l, n·v)/(v·h)) whatever the
+    /// distribution (see [`v_cavity_masking`]).
+    VCavity,
+}
+
+/// Cook and Torrance's V-cavity masking min(1, 2(n·h) min(n·l, n·v)/(v·h)): min over l and v
+/// of one expression, so it is symmetric.
+#[inline]
+pub(crate) fn v_cavity_masking(l: DVec3, v: DVec3) -> f64 {
+    let h = (l + v).normalize();
+    let vh = cos_half_difference(l, v).max(MIN_COS);
+    (2.0 * h.z * l.z.min(v.z) / vh).min(1.0)
+}
+
 /// Microfacet specular term D·F·G₂/(4 cos θ_l cos θ_v) with the height-correlated Smith
 /// G₂ = 1/(1 + Λ(l) + Λ(v)), shared by [`Microfacet`] and [`ClearCoat`].
 #[inline]
@@ -218,13 +240,23 @@ fn microfacet_dg(
     ay: f64,
     rotation: f64,
 ) -> f64 {
-    microfacet_dg_turned(distribution, l, v, ax, ay, sin_cos(rotation))
+    microfacet_dg_turned(
+        distribution,
+        Masking::Smith,
+        l,
+        v,
+        ax,
+        ay,
+        sin_cos(rotation),
+    )
 }
 
-/// [`microfacet_dg`] with the rotation's (sin, cos) given.
+/// [`microfacet_dg`] with the rotation's (sin, cos) given and the masking chosen (Blinn–Phong's
+/// and Ashikhmin–Shirley's lobes bring their own).
 #[inline]
 fn microfacet_dg_turned(
     distribution: Distribution,
+    masking: Masking,
     l: DVec3,
     v: DVec3,
     ax: f64,
@@ -247,13 +279,17 @@ fn microfacet_dg_turned(
         let cos_d = (0.5 * (l.dot(h) + v.dot(h))).max(MIN_COS);
         return d / (4.0 * cos_d * l.z.max(v.z).max(MIN_COS));
     }
-    let (lx, ly) = rotated_xy(l, sc);
-    let (vx, vy) = rotated_xy(v, sc);
-    // Λ(l) + Λ(v) summed first so that swapping l and v gives the same bits.
-    let g = 1.0
-        / (1.0
-            + (distribution.lambda(lx, ly, l.z, ax, ay)
-                + distribution.lambda(vx, vy, v.z, ax, ay)));
+    let g = match masking {
+        Masking::Smith => {
+            let (lx, ly) = rotated_xy(l, sc);
+            let (vx, vy) = rotated_xy(v, sc);
+            // Λ(l) + Λ(v) summed first so that swapping l and v gives the same bits.
+            1.0 / (1.0
+                + (distribution.lambda(lx, ly, l.z, ax, ay)
+                    + distribution.lambda(vx, vy, v.z, ax, ay)))
+        }
+        Masking::VCavity => v_cavity_masking(l, v),
+    };
     d * g / (4.0 * l.z.max(MIN_COS) * v.z.max(MIN_COS))
 }
 
@@ -352,9 +388,15 @@ pub(crate) struct LobeShape {
     alpha_x: f64,
     alpha_y: f64,
     sin_cos: (f64, f64),
+    masking: Masking,
 }
 
 impl LobeShape {
+    /// The same lobe under `masking`.
+    pub(crate) fn with_masking(self, masking: Masking) -> Self {
+        Self { masking, ..self }
+    }
+
     #[inline]
     pub(crate) fn eval(&self, l: DVec3, v: DVec3) -> f64 {
         if !above(l, v) {
@@ -362,6 +404,7 @@ impl LobeShape {
         }
         microfacet_dg_turned(
             self.distribution,
+            self.masking,
             l,
             v,
             self.alpha_x,
@@ -379,6 +422,7 @@ impl Microfacet {
             alpha_x: self.alpha_x,
             alpha_y: self.alpha_y,
             sin_cos: sin_cos(self.rotation),
+            masking: Masking::Smith,
         }
     }
 
@@ -951,6 +995,52 @@ pub(crate) mod tests {
         let (l, v) = in_plane(1.4, 0.0);
         assert!(beckmann.eval(l, v)[0] > 2.0 * phong.eval(l, v)[0]);
         assert_eq!(phong.eval(l, v), phong.eval(v, l));
+    }
+
+    /// V-cavity masking: 1 at every mirror pair however grazing, where Smith's falls with
+    /// the lobe's roughness, and a V-cavity lobe with Schlick's Fresnel is Cook and
+    /// Torrance's specular (to rounding: their D takes the half vector's slope two ways).
+    #[test]
+    fn a_v_cavity_lobe_keeps_the_grazing_mirror_that_smiths_masking_shadows() {
+        let lobe =
+            Microfacet::isotropic(Distribution::Ggx, 0.075, Fresnel::Schlick { f0: [0.04; 3] });
+        let smith = lobe.shape();
+        let cavity = smith.with_masking(Masking::VCavity);
+        let at = |theta_deg: f64, phi: f64| {
+            let t = theta_deg.to_radians();
+            DVec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
+        };
+        for theta in [10.0, 60.0, 88.0] {
+            let (l, v) = (at(theta, 0.0), at(theta, PI));
+            assert_eq!(v_cavity_masking(l, v), 1.0, "θ {theta}");
+        }
+        // Smith's G₂ at the 88° mirror for α 0.075 is about 0.42.
+        let (l, v) = (at(88.0, 0.0), at(88.0, PI));
+        let ratio = cavity.eval(l, v) / smith.eval(l, v);
+        assert!((2.0..3.0).contains(&ratio), "{ratio}");
+        let cook_torrance = crate::materials::classic::CookTorrance {
+            diffuse: [0.0; 3],
+            distribution: Distribution::Ggx,
+            alpha: 0.075,
+            fresnel: lobe.fresnel,
+            tint: [1.0; 3],
+        };
+        for (l, v) in [
+            (at(30.0, 0.3), at(50.0, 2.0)),
+            (at(80.0, 0.0), at(85.0, PI)),
+            (at(5.0, 1.0), at(70.0, 4.0)),
+        ] {
+            let fresnel = lobe.fresnel.eval(cos_half_difference(l, v));
+            let ours = fresnel.map(|f| f * cavity.eval(l, v));
+            let theirs = cook_torrance.eval(l, v);
+            for c in 0..3 {
+                assert!(
+                    (ours[c] - theirs[c]).abs() <= 1e-12 * theirs[c],
+                    "{ours:?} {theirs:?}"
+                );
+            }
+            assert_eq!(cavity.eval(l, v), cavity.eval(v, l));
+        }
     }
 
     /// Blinn–Phong's implicit masking leaves Beckmann's slopes over 4: head-on it is

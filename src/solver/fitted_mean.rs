@@ -164,6 +164,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             dielectric_margin,
             phong_margin,
             gtr_margin,
+            cavity_margin,
             ..
         } => FitOptions {
             beckmann_margin,
@@ -175,6 +176,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
             dielectric_margin,
             phong_margin,
             gtr_margin,
+            cavity_margin,
             ..Default::default()
         },
         PriorMean::Database => FitOptions::default(),
@@ -185,7 +187,7 @@ pub(super) fn fit_options(mean: PriorMean) -> FitOptions {
 mod tests {
     use super::*;
     use crate::basis::build::{SMALL_TEST_SPEC, build_basis, small_test_basis};
-    use crate::materials::models::Distribution;
+    use crate::materials::models::{Distribution, Masking};
     use crate::solver::{BinChange, EXACT, PriorModel, Reconstruction, Regularization, Solver};
 
     fn basis() -> Arc<Basis> {
@@ -206,6 +208,7 @@ mod tests {
             coat: None,
             haze: None,
             edge: None,
+            masking: Masking::Smith,
         }
     }
 
@@ -318,6 +321,7 @@ mod tests {
             phong_margin: Some(1.7),
             gtr_margin: Some(1.8),
             closer_margin: None,
+            cavity_margin: None,
         };
         let options = fit_options(mean);
         assert_eq!(options.beckmann_margin, Some(1.5));

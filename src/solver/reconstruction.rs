@@ -237,7 +237,7 @@ impl Evaluator<'_> {
 mod tests {
     use super::*;
     use crate::basis::build::small_test_basis;
-    use crate::materials::models::Distribution;
+    use crate::materials::models::{Distribution, Masking};
     use crate::solver::analytic_fit::LambertMicrofacet;
     use crate::table::PAIRS;
 
@@ -271,6 +271,7 @@ mod tests {
                 coat: None,
                 haze: None,
                 edge: None,
+                masking: Masking::Smith,
             },
         ))
     }

@@ -166,9 +166,9 @@ pub(super) fn normal_equations(
     const STEP: f64 = 1e-6;
     let (active, n) = shape.active();
     let base = model_of(theta, shape);
-    let lobe = base.parts().1;
-    let lobe_shape = lobe.shape();
-    let second = base.second_part().map(|s| s.shape());
+    let fresnel = base.fresnel();
+    let lobe_shape = base.lobe_shape();
+    let second = base.second_shape();
     let stepped: Vec<Stepped> = active[..n]
         .iter()
         .map(|&i| {
@@ -177,11 +177,11 @@ pub(super) fn normal_equations(
             t[i] += h;
             let model = model_of(&t, shape);
             Stepped {
-                lobe: SHAPE.contains(&i).then(|| model.parts().1.shape()),
+                lobe: SHAPE.contains(&i).then(|| model.lobe_shape()),
                 // A haze's lobe carries the first's Fresnel, which its D·G does not use; a
                 // coat's lobe shares the first's GTR exponent.
                 second: (i == COAT_SHAPE || i == GAMMA)
-                    .then(|| model.second_part().map(|s| s.shape()))
+                    .then(|| model.second_shape())
                     .flatten(),
                 diffuse: i == SIGMA,
                 fresnel: model.fresnel(),
@@ -202,8 +202,7 @@ pub(super) fn normal_equations(
                 let dg = lobe_shape.eval(o.l, o.v);
                 let dg_second = second.as_ref().map_or(0.0, |s| s.eval(o.l, o.v));
                 let diffuse = base.diffuse_scale(o.l, o.v);
-                let rho =
-                    base.eval_from_lobes(&lobe.fresnel, visible, diffuse, dg, dg_second, cos_d);
+                let rho = base.eval_from_lobes(&fresnel, visible, diffuse, dg, dg_second, cos_d);
                 let r = residuals_of(rho, o);
                 let mut jac = [[0.0; P]; 3];
                 for (j, step) in stepped.iter().enumerate() {
@@ -366,7 +365,7 @@ mod tests {
     use super::*;
     use crate::basis::cos_weight;
     use crate::materials::Brdf;
-    use crate::materials::models::Distribution;
+    use crate::materials::models::{Distribution, Masking};
     use crate::solver::sparse::{Bounds, EXACT};
     use crate::table::{PAIRS, PairIndex, bin_centre, pair_directions};
 
@@ -382,6 +381,7 @@ mod tests {
         coat: None,
         haze: None,
         edge: None,
+        masking: Masking::Smith,
     };
 
     /// Every shape the fit tries, each with a model of its own.

@@ -3,7 +3,7 @@
 
 use crate::materials::Brdf;
 use crate::materials::models::{
-    Distribution, Fresnel, LobeShape, Microfacet, OrenNayar, above, cos_half_difference,
+    Distribution, Fresnel, LobeShape, Masking, Microfacet, OrenNayar, above, cos_half_difference,
     oren_nayar_scale, schlick,
 };
 use glam::DVec3;
@@ -52,6 +52,10 @@ pub struct LambertMicrofacet {
     /// conductor's, exact, with reflectance `f0` at normal incidence
     /// ([`conductor_from_edge_tint`]); `None`: Schlick's.
     pub edge: Option<[f64; 3]>,
+    /// How the lobes' facets mask each other ([`FitOptions::cavity_margin`]): Smith's, or
+    /// Cook and Torrance's V-cavities. Blinn–Phong's and Ashikhmin–Shirley's lobes bring their
+    /// own.
+    pub masking: Masking,
 }
 
 /// Gulbrandsen's artist-friendly conductor (2014): the index of refraction η and extinction κ
@@ -107,6 +111,19 @@ impl LambertMicrofacet {
                 tint: [self.specular; 3],
             },
         )
+    }
+
+    /// The first lobe's D·G₂/(4 cos θ_l cos θ_v) under the model's masking, prepared for many
+    /// bins.
+    pub(super) fn lobe_shape(&self) -> LobeShape {
+        self.parts().1.shape().with_masking(self.masking)
+    }
+
+    /// The second lobe's (a coat's or a haze's) D·G₂/(4 cos θ_l cos θ_v) under the model's
+    /// masking, if there is one.
+    pub(super) fn second_shape(&self) -> Option<LobeShape> {
+        self.second_part()
+            .map(|second| second.shape().with_masking(self.masking))
     }
 
     /// The diffuse's ρ at unit albedo for a pair above the surface: 1/π where `sigma` is 0.
@@ -202,11 +219,10 @@ pub struct Prepared {
 
 impl Prepared {
     pub fn new(model: LambertMicrofacet) -> Self {
-        let lobe = model.parts().1;
         Self {
-            fresnel: lobe.fresnel,
-            lobe: lobe.shape(),
-            second: model.second_part().map(|second| second.shape()),
+            fresnel: model.fresnel(),
+            lobe: model.lobe_shape(),
+            second: model.second_shape(),
             model,
         }
     }
@@ -261,6 +277,7 @@ mod tests {
         coat: None,
         haze: None,
         edge: None,
+        masking: Masking::Smith,
     };
 
     /// Reflectance at normal incidence of a conductor η + iκ, written out.

@@ -2,7 +2,7 @@
 //! log-roughness, the diffuse's logistic Oren–Nayar slope, and which of them a shape varies.
 
 use super::model::{Coat, Haze, LambertMicrofacet};
-use crate::materials::models::Distribution;
+use crate::materials::models::{Distribution, Masking};
 
 /// Roughness bounds: below 0.01 a lobe is narrower than the 2° bins can show.
 pub(super) const ALPHA_MIN: f64 = 0.01;
@@ -65,6 +65,8 @@ pub(super) struct Shape {
     /// Only the diffuse varies (its albedo, and its slope where it is rough): every lobe
     /// parameter stays where it is.
     pub(super) diffuse_only: bool,
+    /// Cook and Torrance's V-cavity masking instead of Smith's.
+    pub(super) cavity: bool,
 }
 
 impl Shape {
@@ -77,6 +79,7 @@ impl Shape {
             dielectric: false,
             rough_diffuse: false,
             diffuse_only: false,
+            cavity: false,
         }
     }
 
@@ -150,6 +153,7 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
         edge,
         dielectric,
         rough_diffuse,
+        cavity,
         ..
     } = shape;
     LambertMicrofacet {
@@ -187,6 +191,11 @@ pub(super) fn model_of(theta: &Params, shape: Shape) -> LambertMicrofacet {
             }))
         } else {
             dielectric.then(|| [0, 1, 2].map(|c| least_edge_tint(logistic(theta[3 + c]))))
+        },
+        masking: if cavity {
+            Masking::VCavity
+        } else {
+            Masking::Smith
         },
     }
 }

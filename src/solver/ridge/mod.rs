@@ -799,7 +799,7 @@ mod tests {
     use super::*;
     use crate::basis::build::small_test_basis;
     use crate::materials::tabulate;
-    use crate::solver::analytic_fit::{Distribution, LambertMicrofacet};
+    use crate::solver::analytic_fit::{Distribution, LambertMicrofacet, Masking};
     use crate::table::{DIRECTIONS, PAIRS, bin_centre, pair_multiplicity};
     use std::sync::OnceLock;
 
@@ -1276,6 +1276,7 @@ mod tests {
             coat: None,
             haze: None,
             edge: None,
+            masking: Masking::Smith,
         }
     }
 
@@ -1316,6 +1317,7 @@ mod tests {
                 phong_margin: None,
                 gtr_margin: None,
                 closer_margin: None,
+                cavity_margin: None,
             },
             ..MODEL
         }

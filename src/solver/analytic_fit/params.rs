@@ -4,11 +4,8 @@
 use super::model::{Coat, Haze, LambertMicrofacet};
 use crate::materials::models::{Distribution, Masking};
 
-/// Roughness bounds. A lobe below α 0.01 is narrower than a 2° bin, yet a table holds ρ at
-/// the bins' centres, so its mirror bins still show its height, 1/(πα²): polished lacquer and
-/// glass (α 0.005) bound at 0.01 met that height by lowering F0 and weight, and the
-/// correction carried the misfit on. 0.002 is half the sharpest varnish the database makes.
-pub(super) const ALPHA_MIN: f64 = 0.002;
+/// Roughness bounds: below 0.01 a lobe is narrower than the 2° bins can show.
+pub(super) const ALPHA_MIN: f64 = 0.01;
 pub(super) const ALPHA_MAX: f64 = 1.5;
 /// Parameters of one lobe: three albedo logits, three F0 logits, two log-roughness logits,
 /// rotation, the specular weight's logit.
